@@ -1,0 +1,39 @@
+# Two commands set everything up on a fresh machine:
+#   make train   installs into .venv (if missing) and runs a short default training run
+#   make test    installs into .venv (if missing) and runs the test suite
+VENV   ?= .venv
+PYTHON ?= python3
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed
+# torch is installed first, pinned, so that the CPU wheel is used and no
+# dependency can pull a CUDA build.
+TORCH  ?= torch==2.13.0
+
+.PHONY: install train test lint bench clean
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet "$(TORCH)"
+	$(PY) -m pip install --quiet -e ".[dev]"
+	touch $(STAMP)
+
+train: $(STAMP)
+	$(PY) -m rlhc.run
+
+# pytest exits 5 when it collects no tests: not a failure.
+test: $(STAMP)
+	$(PY) -m pytest -n 2 -q; status=$$?; if [ $$status -eq 5 ]; then exit 0; fi; exit $$status
+
+lint: $(STAMP)
+	$(PY) -m ruff check rlhc tests benchmarks
+	$(PY) -m ruff format --check rlhc tests benchmarks
+	$(PY) -m mypy rlhc
+
+bench: $(STAMP)
+	$(PY) benchmarks/env_throughput.py
+
+clean:
+	rm -rf $(VENV) outputs multirun .pytest_cache .mypy_cache .ruff_cache

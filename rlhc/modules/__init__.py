@@ -1,0 +1,1 @@
+"""Networks: actors, worker critics and manager critics, built from env specs."""

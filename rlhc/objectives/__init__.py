@@ -1,0 +1,1 @@
+"""Hierarchical value estimation (RLHC) composed with TorchRL's PPO loss."""
