@@ -1,0 +1,159 @@
+"""Hydra schemas of a training run, registered in Hydra's ConfigStore.
+
+Every yaml file in ``conf/`` names one of these schemas in its defaults list, so a
+misspelt key or a value of the wrong type fails before anything is built. The
+defaults here are the paper's tennis column of Table 3; ``conf/table3/soccer.yaml``
+holds the soccer column.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from hydra.core.config_store import ConfigStore
+from omegaconf import MISSING
+
+from rlhc.envs.config import SoccerEnvConfig, TennisEnvConfig
+
+FUSIONS = ("local", "manager", "max", "mean", "weighted")
+
+
+@dataclass
+class CriticConfig:
+    """How the worker and manager critics are fused into the value used by GAE.
+
+    Attributes:
+        fusion: ``local`` (worker critic only: PPO), ``manager`` (manager critic only),
+            ``max`` (RLHC: element-wise ``max(V_w, V_m)``), ``mean`` or ``weighted``.
+        weight: manager weight ``w`` of ``weighted``: ``w·V_m + (1 - w)·V_w``, in [0, 1].
+        manager_interval: the manager is consulted every ``k`` steps of an episode
+            (temporal scaling); on other steps the worker value is used.
+    """
+
+    fusion: str = "max"
+    weight: float = 0.5
+    manager_interval: int = 1
+
+
+@dataclass
+class PPOConfig:
+    """PPO hyperparameters (paper Table 3; a frame is one step of one world).
+
+    Attributes:
+        max_steps: frames to train for.
+        buffer_size: frames collected per iteration; rounded up to a multiple of
+            ``time_horizon`` (one segment of ``time_horizon`` steps per world).
+        time_horizon: steps collected from each world per iteration.
+        batch_size: minibatch size in frames (every agent of every group in a frame).
+        epochs: passes over each collected buffer.
+        lr: Adam learning rate.
+        anneal_lr: decay the learning rate linearly to 0 over ``max_steps``.
+        gamma: discount.
+        lmbda: GAE lambda.
+        clip_epsilon: PPO ratio clip.
+        entropy_coef: the paper's ``beta``.
+        critic_coef: weight of each critic's value loss.
+        max_grad_norm: global gradient-norm clip.
+        normalize_advantage: standardise advantages per minibatch.
+        normalize_observations: running mean/std normalisation of both observations
+            (the paper's ``normalize``).
+    """
+
+    max_steps: int = 200_000
+    buffer_size: int = 10_240
+    time_horizon: int = 64
+    batch_size: int = 1024
+    epochs: int = 3
+    lr: float = 3e-4
+    anneal_lr: bool = True
+    gamma: float = 0.99
+    lmbda: float = 0.95
+    clip_epsilon: float = 0.2
+    entropy_coef: float = 0.005
+    critic_coef: float = 0.5
+    max_grad_norm: float = 0.5
+    normalize_advantage: bool = True
+    normalize_observations: bool = True
+
+
+@dataclass
+class ModelConfig:
+    """Actor and critic networks (multi-layer perceptrons, one per group).
+
+    Attributes:
+        kind: ``mlp``. (``lstm`` is recognised and refused with an explanation.)
+        num_layers: hidden layers.
+        hidden_size: units per hidden layer.
+        activation: ``tanh``, ``relu`` or ``elu``.
+        memory_size: LSTM memory size (recurrent option, Table 3).
+        sequence_length: LSTM training sequence length (recurrent option, Table 3).
+    """
+
+    kind: str = "mlp"
+    num_layers: int = 2
+    hidden_size: int = 128
+    activation: str = "tanh"
+    memory_size: int = 256
+    sequence_length: int = 64
+
+
+@dataclass
+class LoggerConfig:
+    """Where metrics go.
+
+    Attributes:
+        backends: any of ``csv`` (``metrics.csv``, always written), ``tensorboard``, ``wandb``.
+        summary_freq: log after every update that crosses a multiple of this many frames.
+        progress: show a progress bar (``None``: only when stderr is a terminal).
+        wandb_project: wandb project name.
+        wandb_mode: ``auto`` (online if an API key is configured, else offline),
+            ``online``, ``offline`` or ``disabled``.
+    """
+
+    backends: list[str] = field(default_factory=lambda: ["csv", "tensorboard"])
+    summary_freq: int = 1000
+    progress: bool | None = None
+    wandb_project: str = "rlhc"
+    wandb_mode: str = "auto"
+
+
+@dataclass
+class TrainConfig:
+    """A whole training run.
+
+    Attributes:
+        env: the game (group ``env``: ``tennis`` or ``soccer``).
+        critic: the value fusion (group ``critic``).
+        algo: PPO hyperparameters (Table 3 per env, group ``table3`` chooses them).
+        model: the networks (group ``model``).
+        logger: metrics backends (group ``logger``).
+        seed: seeds torch, numpy and the game.
+        checkpoint_freq: save a checkpoint after every update that crosses a multiple of
+            this many frames (and always at the end).
+        resume: a checkpoint file, or a run directory (its latest checkpoint), to continue.
+        device: torch device.
+        threads: torch intra-op threads (``0``: leave torch's default).
+    """
+
+    env: Any = MISSING
+    critic: CriticConfig = field(default_factory=CriticConfig)
+    algo: PPOConfig = field(default_factory=PPOConfig)
+    model: ModelConfig = field(default_factory=ModelConfig)
+    logger: LoggerConfig = field(default_factory=LoggerConfig)
+    seed: int = 0
+    checkpoint_freq: int = 50_000
+    resume: str | None = None
+    device: str = "cpu"
+    threads: int = 1
+
+
+def register_configs() -> None:
+    """Register the schemas so that yaml files can name them in their defaults lists."""
+    cs = ConfigStore.instance()
+    cs.store(name="train_schema", node=TrainConfig)
+    cs.store(group="env", name="tennis_schema", node=TennisEnvConfig)
+    cs.store(group="env", name="soccer_schema", node=SoccerEnvConfig)
+    cs.store(group="critic", name="critic_schema", node=CriticConfig)
+    cs.store(group="model", name="model_schema", node=ModelConfig)
+    cs.store(group="logger", name="logger_schema", node=LoggerConfig)

@@ -1,0 +1,137 @@
+"""Every config composes and validates; bad overrides fail before anything is built."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.errors import ConfigCompositionException
+from omegaconf import OmegaConf
+from omegaconf.errors import ConfigKeyError, ValidationError
+
+from rlhc.config import TrainConfig, register_configs
+from rlhc.envs.config import SoccerEnvConfig, TennisEnvConfig
+
+CONF = Path(__file__).resolve().parents[1] / "conf"
+register_configs()
+
+
+def load(*overrides: str) -> TrainConfig:
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        cfg = compose(config_name="train", overrides=list(overrides))
+    return OmegaConf.to_object(cfg)  # type: ignore[return-value]
+
+
+def options(group: str) -> list[str]:
+    return sorted(p.stem for p in (CONF / group).glob("*.yaml"))
+
+
+@pytest.mark.parametrize("env", options("env"))
+@pytest.mark.parametrize("critic", options("critic"))
+def test_every_env_and_critic_composes(env: str, critic: str) -> None:
+    cfg = load(f"env={env}", f"critic={critic}")
+    assert isinstance(cfg, TrainConfig)
+    assert cfg.env.name == env
+    assert isinstance(cfg.env, TennisEnvConfig if env == "tennis" else SoccerEnvConfig)
+
+
+@pytest.mark.parametrize("group", ["model", "logger", "experiment"])
+def test_every_option_of_other_groups_composes(group: str) -> None:
+    for option in options(group):
+        assert isinstance(load(f"{group}={option}"), TrainConfig)
+
+
+def test_critic_names_map_to_fusions() -> None:
+    expected = {
+        "ppo": "local",
+        "hierarchical": "max",
+        "manager": "manager",
+        "mean": "mean",
+        "weighted": "weighted",
+    }
+    assert {c: load(f"critic={c}").critic.fusion for c in options("critic")} == expected
+
+
+@pytest.mark.parametrize(
+    ("env", "values"),
+    [
+        (
+            "tennis",
+            dict(batch_size=1024, buffer_size=10240, max_steps=200_000, lr=3e-4,
+                 entropy_coef=0.005, time_horizon=64, normalize_observations=True,
+                 hidden_size=128, summary_freq=1000),
+        ),
+        (
+            "soccer",
+            dict(batch_size=128, buffer_size=2000, max_steps=500_000, lr=1e-3,
+                 entropy_coef=0.01, time_horizon=128, normalize_observations=False,
+                 hidden_size=256, summary_freq=2000),
+        ),
+    ],
+)  # fmt: skip
+def test_defaults_follow_table_3(env: str, values: dict[str, float]) -> None:
+    cfg = load(f"env={env}")
+    got = {
+        "batch_size": cfg.algo.batch_size,
+        "buffer_size": cfg.algo.buffer_size,
+        "max_steps": cfg.algo.max_steps,
+        "lr": cfg.algo.lr,
+        "entropy_coef": cfg.algo.entropy_coef,
+        "time_horizon": cfg.algo.time_horizon,
+        "normalize_observations": cfg.algo.normalize_observations,
+        "hidden_size": cfg.model.hidden_size,
+        "summary_freq": cfg.logger.summary_freq,
+    }
+    assert got == values
+    assert (cfg.algo.gamma, cfg.algo.lmbda, cfg.algo.clip_epsilon, cfg.algo.epochs) == (
+        0.99, 0.95, 0.2, 3,
+    )  # fmt: skip
+    assert cfg.model.num_layers == 2
+
+
+def test_overrides_reach_the_config() -> None:
+    cfg = load(
+        "env=tennis",
+        "env.extended_obs=true",
+        "critic=weighted",
+        "critic.weight=0.25",
+        "critic.manager_interval=5",
+        "algo.lr=1e-4",
+        "seed=3",
+    )
+    assert cfg.env.extended_obs is True
+    assert (cfg.critic.fusion, cfg.critic.weight, cfg.critic.manager_interval) == (
+        "weighted", 0.25, 5,
+    )  # fmt: skip
+    assert cfg.algo.lr == 1e-4
+    assert cfg.seed == 3
+
+
+def test_smoke_experiment_overrides_table_3() -> None:
+    cfg = load("env=soccer", "experiment=smoke")
+    assert cfg.algo.max_steps < 5000
+    assert cfg.env.num_envs == 4
+
+
+@pytest.mark.parametrize(
+    "override",
+    ["algo.lrr=0.1", "env.extendd_obs=true", "critic.fusoin=max"],
+)
+def test_misspelt_key_fails_fast(override: str) -> None:
+    with pytest.raises((ConfigCompositionException, ConfigKeyError)) as info:
+        load(override)
+    assert override.split("=")[0].split(".")[-1] in str(info.value) + str(info.value.__cause__)
+
+
+@pytest.mark.parametrize("override", ["algo.lr=fast", "seed=abc", "env.extended_obs=maybe"])
+def test_wrong_type_fails_fast(override: str) -> None:
+    with pytest.raises((ConfigCompositionException, ValidationError)) as info:
+        load(override)
+    message = str(info.value) + str(info.value.__cause__)
+    assert override.split("=")[1] in message
+
+
+def test_soccer_has_no_extended_obs() -> None:
+    with pytest.raises((ConfigCompositionException, ConfigKeyError)):
+        load("env=soccer", "env.extended_obs=true")
