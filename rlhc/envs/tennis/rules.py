@@ -1,0 +1,155 @@
+"""The umpire: rewards and the end of a point, vectorised over courts.
+
+The rules follow the Unity tennis the RLHC paper trained on (volley tennis: the
+ball may not touch the ground):
+
+| event | reward | point to |
+|---|---|---|
+| a racket hits the ball and it then crosses the net | ``+0.1`` to that racket | — (rally goes on) |
+| the ball lands inside a team's half (missed) | ``-0.1`` to that team's racket nearest to where it landed | the other team |
+| the ball lands outside the court, or hits a wall, the ceiling or the net | ``-0.1`` to the last racket that hit it | the other team |
+
+Edge cases, decided here once:
+
+* before anyone has hit the ball (the serve), "the last racket that hit it" is the
+  serving team's racket nearest to the ball;
+* the over-the-net bonus is paid once per hit, only if the ball crosses from the
+  hitter's own half;
+* on one step a racket may collect several entries (e.g. a hit over the net and the
+  ball then landing out), and its reward is their sum;
+* the first rally-ending contact of a step decides the point.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rlhc.envs.tennis.physics import GROUND_CONTACT, NO_CONTACT
+
+#: The reward table.
+HIT_OVER_NET_REWARD = 0.1
+FAULT_REWARD = -0.1
+#: Team of each racket.
+RACKET_TEAM = np.array([0, 0, 1, 1])
+
+
+@dataclass
+class Rally:
+    """Per-court memory of the umpire between steps.
+
+    Attributes:
+        last_hitter: ``int64 [N]``: the racket that last touched the ball, ``-1`` since the serve.
+        serving_team: ``int64 [N]``: the team that served this point.
+        credit_pending: ``bool [N]``: the last hit has not yet been paid for crossing the net.
+    """
+
+    last_hitter: np.ndarray
+    serving_team: np.ndarray
+    credit_pending: np.ndarray
+
+    @classmethod
+    def empty(cls, num_courts: int) -> Rally:
+        return cls(
+            last_hitter=np.full(num_courts, -1, dtype=np.int64),
+            serving_team=np.zeros(num_courts, dtype=np.int64),
+            credit_pending=np.zeros(num_courts, dtype=bool),
+        )
+
+
+@dataclass
+class Verdict:
+    """The umpire's decision for one step.
+
+    Attributes:
+        rewards: ``float32 [N, 4]``.
+        terminated: ``bool [N]``: the point is over.
+        scoring_team: ``int64 [N]``: who won the point, ``-1`` if it goes on.
+        over_net: ``bool [N]``: a hit was paid for crossing the net on this step.
+    """
+
+    rewards: np.ndarray
+    terminated: np.ndarray
+    scoring_team: np.ndarray
+    over_net: np.ndarray
+
+
+def _nearest_of_team(team: np.ndarray, x: np.ndarray, racket_x: np.ndarray) -> np.ndarray:
+    """Index (0–3) of the racket of ``team`` horizontally nearest to ``x``, per court."""
+    first = 2 * team
+    rows = np.arange(len(team))
+    first_x = racket_x[rows, first]
+    second_x = racket_x[rows, first + 1]
+    return first + (np.abs(second_x - x) < np.abs(first_x - x))
+
+
+def judge(
+    rally: Rally,
+    racket_touch: np.ndarray,
+    previous_ball_x: np.ndarray,
+    ball_x: np.ndarray,
+    racket_x: np.ndarray,
+    first_contact: np.ndarray,
+    contact_x: np.ndarray,
+    half_length: float,
+) -> Verdict:
+    """Score one step of every court and update ``rally`` in place.
+
+    Args:
+        rally: the umpire's memory (updated in place).
+        racket_touch: ``bool [N, 4]``: which rackets began touching the ball this step.
+        previous_ball_x: ``[N]``: the ball's x before the step (court-local).
+        ball_x: ``[N]``: the ball's x after the step.
+        racket_x: ``[N, 4]``: the rackets' x after the step.
+        first_contact: ``int [N]``: the first rally-ending contact of the step
+            (``physics.NO_CONTACT``, ``GROUND_CONTACT``, ``NET_CONTACT`` or ``WALL_CONTACT``).
+        contact_x: ``[N]``: the ball's x at that contact.
+        half_length: the court spans ``[-half_length, half_length]``.
+
+    Returns:
+        The :class:`Verdict`.
+
+    Examples:
+        >>> rally = Rally.empty(1)
+        >>> verdict = judge(rally, np.array([[True, False, False, False]]),
+        ...                 np.array([-0.5]), np.array([0.5]), np.array([[-1.0, -3, 3, 1]]),
+        ...                 np.array([0]), np.array([0.0]), 6.0)
+        >>> verdict.rewards.tolist(), bool(verdict.terminated[0])
+        ([[0.10000000149011612, 0.0, 0.0, 0.0]], False)
+    """
+    n = len(ball_x)
+    rows = np.arange(n)
+    rewards = np.zeros((n, 4), dtype=np.float32)
+
+    # Hits. Two rackets touching on one step is rare; the lower index takes the hit.
+    hit = racket_touch.any(axis=1)
+    rally.last_hitter = np.where(hit, np.argmax(racket_touch, axis=1), rally.last_hitter)
+    rally.credit_pending |= hit
+
+    # Crossing the net (only possible above it: the net is solid).
+    from_team = (previous_ball_x > 0).astype(np.int64)  # team A's half is x < 0
+    crossed = (previous_ball_x < 0) != (ball_x < 0)
+    hitter = np.maximum(rally.last_hitter, 0)
+    over_net = (
+        crossed
+        & rally.credit_pending
+        & (rally.last_hitter >= 0)
+        & (RACKET_TEAM[hitter] == from_team)
+    )
+    rewards[rows[over_net], hitter[over_net]] += HIT_OVER_NET_REWARD
+    rally.credit_pending &= ~crossed
+
+    # The end of the point.
+    ended = first_contact != NO_CONTACT
+    inside = np.abs(contact_x) <= half_length
+    missed = ended & (first_contact == GROUND_CONTACT) & inside
+    missing_team = (contact_x > 0).astype(np.int64)
+    missed_by = _nearest_of_team(missing_team, contact_x, racket_x)
+    # Out, wall, ceiling or net: the last hitter's fault (the server's team since the serve).
+    serve_culprit = _nearest_of_team(rally.serving_team, ball_x, racket_x)
+    faulted_by = np.where(rally.last_hitter >= 0, rally.last_hitter, serve_culprit)
+    culprit = np.where(missed, missed_by, faulted_by)
+    rewards[rows[ended], culprit[ended]] += FAULT_REWARD
+    scoring_team = np.where(ended, 1 - RACKET_TEAM[culprit], -1).astype(np.int64)
+    return Verdict(rewards=rewards, terminated=ended, scoring_team=scoring_team, over_net=over_net)
