@@ -1,1 +1,22 @@
-"""Networks: actors, worker critics and manager critics, built from env specs."""
+"""Networks: actors, worker critics and manager critics, built from env specs.
+
+Examples:
+    >>> from rlhc.modules import NetworkConfig, make_actor, make_worker_critic
+"""
+
+from __future__ import annotations
+
+from rlhc.modules.actors import make_actor
+from rlhc.modules.config import ACTIVATIONS, NetworkConfig
+from rlhc.modules.critics import make_manager_critic, make_worker_critic
+from rlhc.modules.specs import EnvSpecs, HasSpecs
+
+__all__ = [
+    "ACTIVATIONS",
+    "EnvSpecs",
+    "HasSpecs",
+    "NetworkConfig",
+    "make_actor",
+    "make_manager_critic",
+    "make_worker_critic",
+]

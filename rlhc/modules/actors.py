@@ -1,0 +1,102 @@
+"""The policy of one group: a shared ``MultiAgentMLP`` turned into a distribution.
+
+| action spec | head | distribution |
+|---|---|---|
+| ``Bounded`` ``[..., n_g, size]`` (tennis) | loc, scale (``NormalParamExtractor``) | ``TanhNormal`` squashed into the spec's bounds |
+| ``Categorical`` ``[..., n_g]`` (soccer) | logits | ``torch.distributions.Categorical`` (integer actions, as the spec) |
+
+Both write ``(g, "action")`` and its log-probability ``(g, "action_log_prob")``.
+"""
+
+from __future__ import annotations
+
+import torch
+from tensordict.nn import NormalParamExtractor, TensorDictModule
+from torch import nn
+from torchrl.data import Bounded, Categorical, Composite
+from torchrl.modules import ProbabilisticActor, TanhNormal
+
+from rlhc.modules.config import NetworkConfig
+from rlhc.modules.keys import ACTION, LOC, LOGITS, OBSERVATION, SCALE
+from rlhc.modules.specs import HasSpecs, action_spec, group_mlp, observation_size
+
+
+def _per_agent_bound(bound: torch.Tensor, size: int, name: str) -> torch.Tensor:
+    # A shared policy needs one bound per action dimension: the env may repeat it
+    # over worlds and agents, but it must be the same everywhere.
+    rows = bound.reshape(-1, size)
+    if not torch.all(rows == rows[0]):
+        raise ValueError(f"action {name} bound differs between agents or worlds: {bound}")
+    return rows[0].clone()
+
+
+def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticActor:
+    """The stochastic policy shared by all agents of ``group``.
+
+    Args:
+        env: an env (or :class:`~rlhc.modules.specs.EnvSpecs`) holding
+            ``(group, "observation")`` and ``(group, "action")`` specs.
+        group: the agent group, e.g. ``"racket"``.
+        cfg: the MLP shape.
+
+    Returns:
+        A ``ProbabilisticActor`` reading ``(group, "observation")`` and writing
+        ``(group, "action")`` and ``(group, "action_log_prob")``.
+
+    Raises:
+        TypeError: the action spec is neither ``Bounded`` nor ``Categorical``.
+
+    Examples:
+        >>> import torch
+        >>> from tensordict import TensorDict
+        >>> from torchrl.data import Bounded, Composite, Unbounded
+        >>> from rlhc.modules import EnvSpecs, NetworkConfig, make_actor
+        >>> specs = EnvSpecs(
+        ...     Composite(racket=Composite(observation=Unbounded((4, 8)), shape=(4,))),
+        ...     Composite(racket=Composite(action=Bounded(-1.0, 1.0, (4, 3)), shape=(4,))),
+        ... )
+        >>> actor = make_actor(specs, "racket", NetworkConfig(hidden_size=16))
+        >>> td = TensorDict({("racket", "observation"): torch.randn(5, 4, 8)}, [5])
+        >>> actor(td)["racket", "action"].shape
+        torch.Size([5, 4, 3])
+    """
+    n_agents, n_inputs = observation_size(env, group)
+    spec = action_spec(env, group)
+    action_key = (group, ACTION)
+    out_spec = Composite({action_key: spec}, shape=env.full_action_spec.shape)
+    if isinstance(spec, Bounded):
+        size = int(spec.shape[-1])
+        net = nn.Sequential(group_mlp(n_inputs, 2 * size, n_agents, cfg), NormalParamExtractor())
+        params = TensorDictModule(
+            net, in_keys=[(group, OBSERVATION)], out_keys=[(group, LOC), (group, SCALE)]
+        )
+        return ProbabilisticActor(
+            params,
+            in_keys=[(group, LOC), (group, SCALE)],
+            out_keys=[action_key],
+            spec=out_spec,
+            distribution_class=TanhNormal,
+            distribution_kwargs={
+                "low": _per_agent_bound(spec.space.low, size, "low"),
+                "high": _per_agent_bound(spec.space.high, size, "high"),
+            },
+            return_log_prob=True,
+        )
+    if isinstance(spec, Categorical):
+        logits = TensorDictModule(
+            group_mlp(n_inputs, int(spec.space.n), n_agents, cfg),
+            in_keys=[(group, OBSERVATION)],
+            out_keys=[(group, LOGITS)],
+        )
+        return ProbabilisticActor(
+            logits,
+            in_keys=[(group, LOGITS)],
+            out_keys=[action_key],
+            spec=out_spec,
+            distribution_class=torch.distributions.Categorical,
+            return_log_prob=True,
+        )
+    raise TypeError(
+        f"action spec of group {group!r} is {type(spec).__name__}; "
+        "expected Bounded (continuous) or Categorical (discrete)"
+    )

@@ -1,0 +1,101 @@
+"""Reading a group's sizes from TorchRL specs, and the one MLP every network uses.
+
+The factories of :mod:`rlhc.modules.actors` and :mod:`rlhc.modules.critics` take any
+object with ``full_observation_spec`` and ``full_action_spec`` (a TorchRL ``EnvBase``
+has both), so that networks can be built, and tested, without a simulator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+from torchrl.data import Composite, TensorSpec
+from torchrl.modules import MultiAgentMLP
+
+from rlhc.modules.config import NetworkConfig
+from rlhc.modules.keys import ACTION, MANAGER_OBSERVATION, OBSERVATION
+
+
+class HasSpecs(Protocol):
+    """Anything exposing the two composite specs of a TorchRL env."""
+
+    @property
+    def full_observation_spec(self) -> Composite: ...
+
+    @property
+    def full_action_spec(self) -> Composite: ...
+
+
+@dataclass(frozen=True)
+class EnvSpecs:
+    """The specs of an env without the env (tests, or networks built before the env).
+
+    Attributes:
+        full_observation_spec: holds ``(g, "observation")`` and ``(g, "manager_observation")``.
+        full_action_spec: holds ``(g, "action")``.
+    """
+
+    full_observation_spec: Composite
+    full_action_spec: Composite
+
+
+def _leaf_spec(spec: Composite, key: tuple[str, str], what: str) -> TensorSpec:
+    try:
+        return spec[key]
+    except KeyError:
+        groups = sorted(k for k in spec if isinstance(spec[k], Composite))
+        raise KeyError(f"{what} spec has no entry {key}; groups present: {groups}") from None
+
+
+def observation_size(env: HasSpecs, group: str, *, manager: bool = False) -> tuple[int, int]:
+    """``(n_agents, d)`` of the worker (or manager) observation of ``group``.
+
+    Args:
+        env: an env or :class:`EnvSpecs`.
+        group: the agent group, e.g. ``"racket"``.
+        manager: read ``manager_observation`` instead of ``observation``.
+
+    Returns:
+        The number of agents ``n_g`` and the feature size ``d_w`` (or ``d_m``).
+    """
+    leaf = MANAGER_OBSERVATION if manager else OBSERVATION
+    spec = _leaf_spec(env.full_observation_spec, (group, leaf), "observation")
+    if len(spec.shape) < 2:
+        raise ValueError(f"({group!r}, {leaf!r}) must be [..., n_agents, d], got {spec.shape}")
+    return int(spec.shape[-2]), int(spec.shape[-1])
+
+
+def action_spec(env: HasSpecs, group: str) -> TensorSpec:
+    """The action spec ``(group, "action")`` of ``env``."""
+    return _leaf_spec(env.full_action_spec, (group, ACTION), "action")
+
+
+def group_mlp(n_inputs: int, n_outputs: int, n_agents: int, cfg: NetworkConfig) -> MultiAgentMLP:
+    """One MLP applied to every agent of a group with the same weights.
+
+    ``share_params=True`` is symmetric self-play (both teams, all agents of a group
+    share a network, each agent seeing the world in its own team's frame);
+    ``centralized=False`` keeps each agent's input its own. Batching the agents into
+    one matmul is also what makes a PPO update about twice as fast as a loop over
+    agents on our 2-core machine (DESIGN.md, performance table).
+
+    Args:
+        n_inputs: per-agent input size.
+        n_outputs: per-agent output size.
+        n_agents: agents in the group.
+        cfg: depth, width and activation.
+
+    Returns:
+        A ``MultiAgentMLP`` mapping ``[*B, n_agents, n_inputs]`` to ``[*B, n_agents, n_outputs]``.
+    """
+    return MultiAgentMLP(
+        n_agent_inputs=n_inputs,
+        n_agent_outputs=n_outputs,
+        n_agents=n_agents,
+        centralized=False,
+        share_params=True,
+        depth=cfg.num_layers,
+        num_cells=cfg.hidden_size,
+        activation_class=cfg.activation_class,
+    )

@@ -1,0 +1,306 @@
+"""PPO for RLHC: TorchRL's ``ClipPPOLoss`` with two critics and the hierarchical estimator.
+
+The policy term is TorchRL's clipped surrogate, unchanged, on the advantage of
+:class:`~rlhc.objectives.value.HierarchicalValueEstimator` (computed without
+gradient: the policy gets none through the fused value). The critic term is the
+only change: both critics are regressed on the same lambda-return of ``V_hat``,
+each with its own loss, so that neither critic starves when the other one wins
+the max (the paper trains both; a loss on ``V_hat`` alone would only train, at
+each step, the critic that was selected).
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import torch
+from tensordict import TensorDictBase
+from tensordict.nn import ProbabilisticTensorDictSequential, TensorDictModule, TensorDictSequential
+from tensordict.utils import NestedKey
+from torch import Tensor
+from torchrl.objectives import ClipPPOLoss
+from torchrl.objectives.utils import distance_loss
+
+from rlhc.modules import keys
+from rlhc.objectives.value import HierarchicalValueEstimator
+
+#: Output keys of :class:`HierarchicalPPOLoss` that carry gradient; sum these.
+LOSS_KEYS: tuple[str, ...] = ("loss_objective", "loss_critic", "loss_entropy")
+#: Detached diagnostics added to TorchRL's (entropy, kl_approx, clip_fraction, ...).
+LOSS_WORKER_CRITIC = "loss_worker_critic"
+LOSS_MANAGER_CRITIC = "loss_manager_critic"
+EXPLAINED_VARIANCE = "explained_variance"
+
+
+class _CriticTerms(NamedTuple):
+    worker: Tensor
+    manager: Tensor
+    explained_variance: Tensor
+
+
+class HierarchicalPPOLoss(ClipPPOLoss):
+    """``ClipPPOLoss`` whose critic loss trains a worker and a manager critic.
+
+    ``loss_critic = c * (d(V_target, V_w) + d(V_target, V_m))`` where ``d`` is
+    ``loss_critic_type`` and ``V_target`` the lambda-return of the fused value written
+    by the attached estimator. Everything else (clipping, entropy bonus, advantage
+    normalisation, reductions) is TorchRL's. Attach the estimator with
+    ``loss.value_estimator = HierarchicalValueEstimator(...)``, or build both with
+    :func:`make_ppo_loss`.
+
+    Args:
+        actor_network: the group's ``ProbabilisticActor``.
+        worker_critic: ``V_w``, writing the ``worker_value`` key.
+        manager_critic: ``V_m``, writing the ``manager_value`` key.
+
+    Keyword Args:
+        critic_coeff: ``c``, the weight of the two critic terms.
+        loss_critic_type: ``"l2"``, ``"l1"`` or ``"smooth_l1"``.
+        **ppo_kwargs: forwarded to ``ClipPPOLoss`` (``clip_epsilon``, ``entropy_coeff``,
+            ``normalize_advantage``, ...); value clipping (``clip_value``) is not supported.
+
+    Output (``forward``): TorchRL's ``loss_objective``, ``loss_entropy``, ``entropy``,
+    ``kl_approx``, ``clip_fraction``, ``ESS``, ``max_ratio``, ``mean_ratio``, plus
+    ``loss_critic`` (the sum of the two critic terms) and detached diagnostics
+    ``loss_worker_critic``, ``loss_manager_critic`` (the two terms, which add up to
+    ``loss_critic``) and ``explained_variance`` (of the current fused value). Only
+    :data:`LOSS_KEYS` carry gradient.
+    """
+
+    @dataclass
+    class _AcceptedKeys(ClipPPOLoss._AcceptedKeys):
+        """TorchRL's PPO keys plus the two critics' outputs.
+
+        Attributes:
+            worker_value: the worker critic's output ``V_w``.
+            manager_value: the manager critic's output ``V_m``.
+        """
+
+        worker_value: NestedKey = keys.WORKER_VALUE
+        manager_value: NestedKey = keys.MANAGER_VALUE
+
+    default_keys = _AcceptedKeys
+    tensor_keys: _AcceptedKeys
+
+    def __init__(
+        self,
+        actor_network: ProbabilisticTensorDictSequential,
+        worker_critic: TensorDictModule,
+        manager_critic: TensorDictModule,
+        *,
+        critic_coeff: float = 1.0,
+        loss_critic_type: str = "l2",
+        **ppo_kwargs: Any,
+    ) -> None:
+        if ppo_kwargs.get("clip_value"):
+            raise ValueError("clip_value is not supported by HierarchicalPPOLoss")
+        if critic_coeff <= 0:
+            raise ValueError(
+                f"critic_coeff must be > 0 (both critics must learn), got {critic_coeff}"
+            )
+        # One critic module computing both values: ClipPPOLoss then holds (and hands
+        # to the optimiser) the parameters of both critics next to the actor's.
+        super().__init__(
+            actor_network,
+            TensorDictSequential(worker_critic, manager_critic),
+            critic_coeff=critic_coeff,
+            loss_critic_type=loss_critic_type,
+            **ppo_kwargs,
+        )
+        # ClipPPOLoss would score a single value head; the two-critic term is computed
+        # in forward instead, so its own critic term is switched off here.
+        self._has_critic = False
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name == "value_estimator":
+            # ``nn.Module.__setattr__`` files a module under its own name and never
+            # reaches LossModule's ``value_estimator`` setter (TorchRL 0.14), so
+            # ``loss.value_estimator = est`` would be silently ignored. Store it where
+            # the getter looks, and give it this loss's keys.
+            super().__setattr__("_value_estimator", value)
+            self._forward_value_estimator_keys()
+            return
+        super().__setattr__(name, value)
+
+    @property
+    def out_keys(self) -> list[str]:
+        torchrl_keys = [key for key in super().out_keys if key != "loss_critic"]
+        return [
+            *torchrl_keys,
+            "loss_critic",
+            LOSS_WORKER_CRITIC,
+            LOSS_MANAGER_CRITIC,
+            EXPLAINED_VARIANCE,
+        ]
+
+    @out_keys.setter
+    def out_keys(self, values: list[str]) -> None:
+        self._out_keys = values
+
+    def _forward_value_estimator_keys(self, **kwargs: Any) -> None:
+        super()._forward_value_estimator_keys(**kwargs)
+        if isinstance(getattr(self, "_value_estimator", None), HierarchicalValueEstimator):
+            self._value_estimator.set_keys(
+                worker_value=self.tensor_keys.worker_value,
+                manager_value=self.tensor_keys.manager_value,
+            )
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        """The PPO losses and diagnostics on a batch (or minibatch) of data.
+
+        Args:
+            tensordict: collected data; if it holds no advantage yet, the attached
+                estimator computes it first (usually the trainer does so once per
+                batch, before splitting it into minibatches).
+
+        Returns:
+            A TensorDict of scalars (see the class docstring).
+        """
+        tensordict = tensordict.clone(False)
+        if tensordict.get(self.tensor_keys.advantage, None) is None:
+            # Run here (rather than inside ClipPPOLoss.forward) so that the value
+            # target lands in this copy, where the critic terms below read it.
+            with torch.no_grad():
+                self.value_estimator(tensordict)
+        td_out = super().forward(tensordict)
+        terms = self._critic_terms(tensordict)
+        td_out.set(
+            "loss_critic", self._reduce_loss(terms.worker + terms.manager, tensordict).squeeze(-1)
+        )
+        td_out.set(
+            LOSS_WORKER_CRITIC, self._reduce_loss(terms.worker.detach(), tensordict).squeeze(-1)
+        )
+        td_out.set(
+            LOSS_MANAGER_CRITIC, self._reduce_loss(terms.manager.detach(), tensordict).squeeze(-1)
+        )
+        td_out.set(EXPLAINED_VARIANCE, terms.explained_variance)
+        return td_out
+
+    def _critic_terms(self, tensordict: TensorDictBase) -> _CriticTerms:
+        tk = self.tensor_keys
+        target = tensordict.get(tk.value_target, None)
+        if target is None:
+            raise KeyError(
+                f"missing value target {tk.value_target!r}: run the value estimator first "
+                "(loss.value_estimator(data)) or let forward run it"
+            )
+        target = target.detach()
+        # Evaluate on a selection so that the values with gradient are never written
+        # into the caller's data.
+        inputs = tensordict.select(*self.critic_network.in_keys, strict=False)
+        with (
+            self.critic_network_params.to_module(self.critic_network, preserve_module_state=False)
+            if self.functional
+            else contextlib.nullcontext()
+        ):
+            values = self.critic_network(inputs)
+        worker_value = values.get(tk.worker_value)
+        manager_value = values.get(tk.manager_value)
+        worker = self.critic_coeff * distance_loss(target, worker_value, self.loss_critic_type)
+        manager = self.critic_coeff * distance_loss(target, manager_value, self.loss_critic_type)
+        with torch.no_grad():
+            if isinstance(self.value_estimator, HierarchicalValueEstimator):
+                fused, _ = self.value_estimator.fuse(tensordict, worker_value, manager_value)
+            else:
+                fused = worker_value
+            explained = 1.0 - (target - fused).var(correction=0) / (
+                target.var(correction=0) + torch.finfo(target.dtype).eps
+            )
+        return _CriticTerms(worker, manager, explained)
+
+
+def make_ppo_loss(
+    *,
+    actor: ProbabilisticTensorDictSequential,
+    worker_critic: TensorDictModule,
+    manager_critic: TensorDictModule,
+    group: str,
+    gamma: float = 0.99,
+    lmbda: float = 0.95,
+    fusion: str = "max",
+    weight: float = 0.5,
+    manager_interval: int = 1,
+    clip_epsilon: float = 0.2,
+    entropy_coef: float = 0.005,
+    critic_coef: float = 0.5,
+    normalize_advantage: bool = True,
+    loss_critic_type: str = "l2",
+) -> HierarchicalPPOLoss:
+    """The PPO loss of one group, with its hierarchical value estimator attached.
+
+    Args:
+        actor: the group's policy (:func:`~rlhc.modules.make_actor`).
+        worker_critic: ``V_w`` (:func:`~rlhc.modules.make_worker_critic`).
+        manager_critic: ``V_m`` (:func:`~rlhc.modules.make_manager_critic`).
+        group: the agent group, e.g. ``"racket"``; every key is nested under it.
+        gamma: discount (paper, Table 3: 0.99).
+        lmbda: GAE lambda (paper: 0.95).
+        fusion: ``"local"`` (PPO), ``"manager"``, ``"max"`` (RLHC), ``"mean"``, ``"weighted"``.
+        weight: the manager's weight in ``"weighted"`` fusion.
+        manager_interval: consult the manager every ``k`` steps (temporal scaling).
+        clip_epsilon: PPO ratio clip (paper: 0.2).
+        entropy_coef: entropy bonus ``beta`` (paper: 0.005 tennis, 0.01 soccer).
+        critic_coef: weight of each critic's regression term.
+        normalize_advantage: standardise the advantage per minibatch, per agent slot.
+        loss_critic_type: ``"l2"``, ``"l1"`` or ``"smooth_l1"``.
+
+    Returns:
+        A :class:`HierarchicalPPOLoss`; its ``value_estimator`` is a
+        :class:`~rlhc.objectives.value.HierarchicalValueEstimator`. Optimise
+        ``loss.parameters()`` on the sum of :data:`LOSS_KEYS`.
+
+    Examples:
+        >>> import torch
+        >>> from torchrl.data import Bounded, Composite, Unbounded
+        >>> from rlhc.modules import (EnvSpecs, NetworkConfig, make_actor,
+        ...     make_manager_critic, make_worker_critic)
+        >>> from rlhc.objectives import make_ppo_loss
+        >>> specs = EnvSpecs(
+        ...     Composite(racket=Composite(observation=Unbounded((4, 8)),
+        ...         manager_observation=Unbounded((4, 10)), shape=(4,))),
+        ...     Composite(racket=Composite(action=Bounded(-1.0, 1.0, (4, 3)), shape=(4,))))
+        >>> cfg = NetworkConfig(hidden_size=16)
+        >>> loss = make_ppo_loss(
+        ...     actor=make_actor(specs, "racket", cfg),
+        ...     worker_critic=make_worker_critic(specs, "racket", cfg),
+        ...     manager_critic=make_manager_critic(specs, "racket", cfg),
+        ...     group="racket", fusion="max")
+        >>> loss.value_estimator.fusion
+        'max'
+    """
+    loss = HierarchicalPPOLoss(
+        actor,
+        worker_critic,
+        manager_critic,
+        clip_epsilon=clip_epsilon,
+        entropy_coeff=entropy_coef,
+        critic_coeff=critic_coef,
+        loss_critic_type=loss_critic_type,
+        normalize_advantage=normalize_advantage,
+        # Standardise each agent slot on its own (as TorchRL's MAPPO does), and
+        # silence ClipPPOLoss's multi-agent warning.
+        normalize_advantage_exclude_dims=(-2,),
+    )
+    loss.set_keys(
+        advantage=(group, keys.ADVANTAGE),
+        value_target=(group, keys.VALUE_TARGET),
+        value=(group, keys.STATE_VALUE),
+        reward=(group, keys.REWARD),
+        done=(group, keys.DONE),
+        terminated=(group, keys.TERMINATED),
+        worker_value=(group, keys.WORKER_VALUE),
+        manager_value=(group, keys.MANAGER_VALUE),
+    )
+    loss.value_estimator = HierarchicalValueEstimator(
+        worker_value_network=worker_critic,
+        manager_value_network=manager_critic,
+        gamma=gamma,
+        lmbda=lmbda,
+        fusion=fusion,
+        weight=weight,
+        manager_interval=manager_interval,
+        group=group,
+    )
+    return loss
