@@ -1,0 +1,206 @@
+"""2 vs 2 soccer: a striker and a goalie per team, ray perception, N pitches batched.
+
+A top-down pitch (16 m × 10 m by default) closed by walls, a 3 m goal in each end with a
+1 m deep net, a ball and four round players with a facing direction, simulated by
+pymunk. Team 0 defends the goal at ``-x``, team 1 the goal at ``+x``.
+
+=================== ========================================================================
+agents              ``striker_0``, ``striker_1``, ``goalie_0``, ``goalie_1`` (index = team)
+groups              ``striker`` (2), ``goalie`` (2); ``teams = (0, 1)``
+striker action      ``Discrete(6)``: forward, backward, rotate left, rotate right, side left,
+                    side right (paper Table 2; no no-op, as in the paper)
+goalie action       ``Discrete(4)``: forward, backward, side left, side right (facing fixed)
+worker observation  ``float32 [112]``: 14 rays over 180° ahead, range 10 m ×
+                    (7 types one-hot + normalised distance)
+manager observation ``float32 [200]``: 20 rays over 270°, range 24 m ×
+                    (7 types one-hot + own half + hit flag + normalised distance)
+ray types           ball, own goal, opponent goal, wall, teammate, opponent striker,
+                    opponent goalie
+striker reward      +1 its team scores, -0.1 its team concedes, -0.001 every step
+goalie reward       +0.1 its team scores, -1 its team concedes, +0.001 every step
+termination         a goal (``StepOutcome.scoring_team`` says whose)
+truncation          ``max_cycles`` steps (default 500)
+state               ``float32 [28]``: ball (x, y, vx, vy), then per player in agent order
+                    (x, y, vx, vy, cos θ, sin θ); absolute pitch frame
+=================== ========================================================================
+
+Observations are egocentric (the agent's position, facing and team), so team 1 sees the
+pitch as team 0 does after a 180° rotation about the centre spot: one network plays both
+sides. All options are fields of :class:`~rlhc.envs.soccer.config.SoccerOptions`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from rlhc.envs.base import (
+    BatchedGame,
+    DiscreteAction,
+    GroupObservation,
+    GroupSpec,
+    StepOutcome,
+    validate_actions,
+)
+from rlhc.envs.soccer.config import SoccerOptions
+from rlhc.envs.soccer.controls import GOALIE_ACTIONS, STRIKER_ACTIONS, Controls
+from rlhc.envs.soccer.observations import MANAGER_SIZE, WORKER_SIZE, RaySensors
+from rlhc.envs.soccer.physics import BALL, NUM_PLAYERS, PitchGeometry, SoccerPhysics
+from rlhc.envs.soccer.rules import ROLE_BODIES, kickoff, rewards, scoring_team
+
+#: length of :meth:`SoccerGame.state`.
+STATE_SIZE = 4 + 6 * NUM_PLAYERS
+
+
+class SoccerGame(BatchedGame):
+    """``num_worlds`` soccer pitches stepped in lockstep (all in one pymunk space).
+
+    Args:
+        num_worlds: number of pitches.
+        seed: seed of the kick-off jitter.
+        **options: fields of :class:`~rlhc.envs.soccer.config.SoccerOptions`, e.g.
+            ``max_cycles=1000`` or ``striker_time_reward=0.0``; an unknown name is a
+            ``ValueError`` that names it.
+
+    Examples:
+        >>> game = SoccerGame(num_worlds=4, seed=0)
+        >>> outcome = game.step({
+        ...     "striker": np.zeros((4, 2), dtype=np.int64),
+        ...     "goalie": np.zeros((4, 2), dtype=np.int64),
+        ... })
+        >>> game.observe()["striker"].observation.shape
+        (4, 2, 112)
+        >>> outcome.rewards["goalie"].shape
+        (4, 2)
+    """
+
+    name: ClassVar[str] = "soccer"
+    groups = (
+        GroupSpec(
+            name="striker",
+            agents=("striker_0", "striker_1"),
+            observation_size=WORKER_SIZE,
+            manager_observation_size=MANAGER_SIZE,
+            action=DiscreteAction(len(STRIKER_ACTIONS)),
+            teams=(0, 1),
+        ),
+        GroupSpec(
+            name="goalie",
+            agents=("goalie_0", "goalie_1"),
+            observation_size=WORKER_SIZE,
+            manager_observation_size=MANAGER_SIZE,
+            action=DiscreteAction(len(GOALIE_ACTIONS)),
+            teams=(0, 1),
+        ),
+    )
+
+    def __init__(self, num_worlds: int, seed: int | None = None, **options: Any) -> None:
+        self.options = SoccerOptions.from_options(options)
+        super().__init__(num_worlds=num_worlds, max_cycles=self.options.max_cycles, seed=seed)
+        self.geometry = PitchGeometry.from_options(self.options)
+        self.physics = SoccerPhysics(self.num_worlds, self.options)
+        self.controls = Controls(self.options)
+        self.sensors = RaySensors(
+            geometry=self.geometry,
+            ball_radius=self.options.ball_radius,
+            player_radius=self.options.player_radius,
+            worker_ray_length=self.options.worker_ray_length,
+            manager_ray_length=self.options.manager_ray_length,
+        )
+        self._observations: dict[str, GroupObservation] | None = None
+        self.reset()
+
+    # --- dynamics -------------------------------------------------------------------
+    def reset(self, mask: np.ndarray | None = None) -> None:
+        """Kick off again in the pitches where ``mask`` is true (all if ``None``)."""
+        if mask is None:
+            mask = np.ones(self.num_worlds, dtype=bool)
+        mask = np.asarray(mask)
+        if mask.shape != (self.num_worlds,) or mask.dtype != np.bool_:
+            raise ValueError(
+                f"reset mask must be bool [{self.num_worlds}], got {mask.dtype} {mask.shape}"
+            )
+        count = int(mask.sum())
+        if count == 0:
+            return
+        positions = np.zeros((self.num_worlds, 5, 2))
+        angles = np.zeros((self.num_worlds, 5))
+        positions[mask], angles[mask] = kickoff(self.rng, count, self.options, self.geometry)
+        self.physics.teleport(mask, positions, angles)
+        self.step_count[mask] = 0
+        self._observations = None
+
+    def step(self, actions: Mapping[str, np.ndarray]) -> StepOutcome:
+        """Advance every pitch one step; see the module docstring for the rules.
+
+        Raises:
+            ValueError: an unknown/missing group, a wrong shape, NaN, or an action out
+                of range (the message names the group and the values).
+        """
+        checked = validate_actions(self.groups, actions, self.num_worlds)
+        physics = self.physics
+        velocities, angular = self.controls.velocities(
+            checked["striker"],
+            checked["goalie"],
+            physics.positions,
+            physics.angles,
+            physics.velocities,
+        )
+        physics.write_velocities(velocities, angular)
+        physics.step()
+        self.step_count += 1
+        self._observations = None
+
+        scoring = scoring_team(physics.positions[:, BALL], self.geometry, self.options.ball_radius)
+        parts = rewards(scoring, self.options)
+        terminated = scoring >= 0
+        truncated = (self.step_count >= self.max_cycles) & ~terminated
+        info = {f"{role}_sparse_reward": parts.sparse[role] for role in ROLE_BODIES}
+        info.update({f"{role}_time_reward": parts.time[role] for role in ROLE_BODIES})
+        return StepOutcome(
+            rewards=parts.total,
+            terminated=terminated,
+            truncated=truncated,
+            scoring_team=scoring,
+            info=info,
+        )
+
+    # --- views ----------------------------------------------------------------------
+    def observe(self) -> dict[str, GroupObservation]:
+        """Worker and manager ray observations of both groups (cached until the next step)."""
+        if self._observations is None:
+            worker, manager = self.sensors.observe(self.physics.positions, self.physics.angles)
+            self._observations = {
+                role: GroupObservation(
+                    observation=worker[:, bodies], manager_observation=manager[:, bodies]
+                )
+                for role, bodies in ROLE_BODIES.items()
+            }
+        return self._observations
+
+    def state(self) -> np.ndarray:
+        """``float32 [N, 28]``: ball (x, y, vx, vy), then per player (x, y, vx, vy, cos, sin)."""
+        physics = self.physics
+        ball = np.concatenate([physics.positions[:, BALL], physics.velocities[:, BALL]], axis=-1)
+        players = np.concatenate(
+            [
+                physics.positions[:, :NUM_PLAYERS],
+                physics.velocities[:, :NUM_PLAYERS],
+                np.cos(physics.angles[:, :NUM_PLAYERS, None]),
+                np.sin(physics.angles[:, :NUM_PLAYERS, None]),
+            ],
+            axis=-1,
+        )
+        return np.concatenate([ball, players.reshape(self.num_worlds, -1)], axis=-1).astype(
+            np.float32
+        )
+
+    def render(self, world: int = 0, *, rays: bool = False) -> np.ndarray:
+        """``uint8 [H, W, 3]`` picture of pitch ``world``; ``rays=True`` overlays the worker rays."""
+        from rlhc.envs.soccer.render import render_pitch
+
+        if not 0 <= world < self.num_worlds:
+            raise ValueError(f"world must lie in [0, {self.num_worlds - 1}], got {world}")
+        return render_pitch(self, world, rays=rays)
