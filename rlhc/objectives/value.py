@@ -266,11 +266,15 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
         time_dim = self._get_time_dim(time_dim, tensordict)
         next_td = _require(tensordict, "next", "the step's next-state data")
         worker_value, manager_value = self._critic_values(tensordict, grad=True)
-        next_worker_value, next_manager_value = self._critic_values(next_td, grad=False)
+        next_worker_value, next_manager_value = self._critic_values(
+            next_td, grad=False, under=("next",)
+        )
 
-        reward = _require(next_td, tk.reward, "the reward of step t")
-        done = _require(next_td, tk.done, "whether the episode ended after step t")
-        terminated = _require(next_td, tk.terminated, "whether it ended without a future")
+        reward = _require(next_td, tk.reward, "the reward of step t", under=("next",))
+        done = _require(next_td, tk.done, "did the episode end after step t", under=("next",))
+        terminated = _require(
+            next_td, tk.terminated, "did it end without a future", under=("next",)
+        )
         reward, done, terminated = (
             _broadcast_to_value(signal, worker_value, tensordict.batch_dims, name)
             for signal, name in ((reward, "reward"), (done, "done"), (terminated, "terminated"))
@@ -280,14 +284,14 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
             consulted, next_consulted = (
                 manager_consulted_mask(
                     _broadcast_to_value(
-                        _require(data, tk.step_count, "the episode step counter"),
+                        _require(data, tk.step_count, "the episode step counter", under=under),
                         worker_value,
                         tensordict.batch_dims,
                         "step_count",
                     ),
                     self.manager_interval,
                 )
-                for data in (tensordict, next_td)
+                for data, under in ((tensordict, ()), (next_td, ("next",)))
             )
         gamma = self.gamma.to(reward.device)
         lmbda = self.lmbda.to(reward.device)
@@ -353,7 +357,9 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
         """The lambda-return on ``V_hat`` (the critics' regression target)."""
         return self.forward(tensordict.copy()).get(self.tensor_keys.value_target)
 
-    def _critic_values(self, data: TensorDictBase, *, grad: bool) -> tuple[Tensor, Tensor]:
+    def _critic_values(
+        self, data: TensorDictBase, *, grad: bool, under: tuple[str, ...] = ()
+    ) -> tuple[Tensor, Tensor]:
         tk = self.tensor_keys
         outputs = []
         for network, key in (
@@ -361,7 +367,7 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
             (self.manager_value_network, tk.manager_value),
         ):
             for in_key in network.in_keys:
-                _require(data, in_key, "an input of the critic writing " + repr(key))
+                _require(data, in_key, f"an input of the critic writing {key!r}", under=under)
             # The bootstrap V_hat(s_{t+1}) never carries gradient (as in TorchRL's GAE).
             with torch.set_grad_enabled(grad and torch.is_grad_enabled()):
                 value = network(data).get(key, None)
@@ -390,13 +396,14 @@ def _as_tuple(key: NestedKey) -> tuple[str, ...]:
     return (key,) if isinstance(key, str) else tuple(key)
 
 
-def _require(data: TensorDictBase, key: NestedKey, meaning: str) -> Tensor:
+def _require(
+    data: TensorDictBase, key: NestedKey, meaning: str, *, under: tuple[str, ...] = ()
+) -> Tensor:
     value = data.get(key, None)
     if value is None:
-        raise KeyError(
-            f"missing key {key!r} ({meaning}); the data has keys "
-            f"{sorted(map(str, data.keys(include_nested=True, leaves_only=True)))}"
-        )
+        full_key = (*under, *_as_tuple(key)) if under else key
+        present = sorted(map(str, data.keys(include_nested=True, leaves_only=True)))
+        raise KeyError(f"missing key {full_key!r} ({meaning}); present: {present}")
     return value
 
 
