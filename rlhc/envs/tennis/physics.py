@@ -55,7 +55,8 @@ class CourtGeometry:
         ball_radius: radius of the ball.
         racket_half_length: half length of a racket's paddle.
         racket_radius: half thickness of a paddle.
-        racket_ground_y: height of a racket's centre when standing on the ground.
+        racket_ground_y: height of a racket's centre when standing on the ground; high
+            enough that even a fully tilted paddle leaves room for the ball beneath it.
         racket_net_gap: closest a racket's centre may come to the net.
         racket_wall_gap: closest a racket's centre may come to a wall.
         racket_speed: top horizontal speed of a racket.
@@ -80,7 +81,7 @@ class CourtGeometry:
     ball_radius: float = 0.12
     racket_half_length: float = 0.4
     racket_radius: float = 0.06
-    racket_ground_y: float = 0.5
+    racket_ground_y: float = 0.7
     racket_net_gap: float = 0.8
     racket_wall_gap: float = 0.8
     racket_speed: float = 6.0
@@ -272,7 +273,21 @@ class TennisPhysics:
         out_ball = out[0 : 5 * n : 5]
         self.ball_position[:, 0] = out_ball[:, _X] - self.origin_x
         self.ball_position[:, 1] = out_ball[:, _Y]
-        velocity = out_ball[:, _VX : _VY + 1]
+        velocity = out_ball[:, _VX : _VY + 1].copy()
+        # A kinematic racket can squeeze the ball into a static surface (both have
+        # infinite mass). Project it back inside the court box so nothing ever leaves.
+        r = g.ball_radius
+        limit_x = g.wall_x - r
+        x, y = self.ball_position[:, 0], self.ball_position[:, 1]
+        outside_x = np.abs(x) > limit_x
+        velocity[outside_x, 0] = np.where(x[outside_x] > 0, -1.0, 1.0) * np.abs(
+            velocity[outside_x, 0]
+        )
+        np.clip(x, -limit_x, limit_x, out=x)
+        below, above = y < r, y > g.ceiling_y - r
+        velocity[below, 1] = np.abs(velocity[below, 1])
+        velocity[above, 1] = -np.abs(velocity[above, 1])
+        np.clip(y, r, g.ceiling_y - r, out=y)
         # Cap the speed so that no physics sub-step carries the ball through the net.
         speed = np.sqrt(np.einsum("ij,ij->i", velocity, velocity))
         scale = np.minimum(1.0, g.max_ball_speed / np.maximum(speed, 1e-12))
