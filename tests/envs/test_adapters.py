@@ -1,0 +1,232 @@
+"""The generic adapters (TorchRL batched env, PettingZoo parallel env), run on tennis
+and on a tiny discrete-action game that stands in for soccer's groups."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+import pytest
+import torch
+from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, render_test
+from torchrl.envs.utils import check_env_specs
+
+from rlhc.envs import make_env, make_game
+from rlhc.envs.base import (
+    BatchedGame,
+    DiscreteAction,
+    GroupObservation,
+    GroupSpec,
+    StepOutcome,
+    validate_actions,
+)
+from rlhc.envs.pettingzoo_adapter import BatchedGameParallelEnv
+from rlhc.envs.tennis import env as tennis_aec_env
+from rlhc.envs.tennis import parallel_env as tennis_parallel_env
+from rlhc.envs.torchrl_adapter import BatchedGameEnv
+
+
+class CountdownGame(BatchedGame):
+    """Two groups with discrete actions; a world ends when action 1 is played by ``a_0``
+    (terminated, team 0 scores) or after ``max_cycles`` steps (truncated)."""
+
+    name = "countdown"
+
+    def __init__(self, num_worlds: int = 1, seed: int | None = None, max_cycles: int = 4) -> None:
+        super().__init__(num_worlds=num_worlds, max_cycles=max_cycles, seed=seed)
+        self.groups = (
+            GroupSpec("a", ("a_0", "a_1"), 3, 5, DiscreteAction(2), (0, 1)),
+            GroupSpec("b", ("b_0",), 2, 2, DiscreteAction(4), (1,)),
+        )
+        self.value = np.zeros(num_worlds)
+
+    def reset(self, mask: np.ndarray | None = None) -> None:
+        mask = np.ones(self.num_worlds, bool) if mask is None else mask
+        self.value[mask] = self.rng.uniform(size=int(mask.sum()))
+        self.step_count[mask] = 0
+
+    def step(self, actions: Mapping[str, np.ndarray]) -> StepOutcome:
+        checked = validate_actions(self.groups, actions, self.num_worlds)
+        self.step_count += 1
+        self.value += 1
+        terminated = checked["a"][:, 0] == 1
+        truncated = (self.step_count >= self.max_cycles) & ~terminated
+        return StepOutcome(
+            rewards={
+                "a": np.stack([terminated, terminated], axis=1) * np.float32([1.0, -1.0]),
+                "b": checked["b"].astype(np.float32),
+            },
+            terminated=terminated,
+            truncated=truncated,
+            scoring_team=np.where(terminated, 0, -1),
+        )
+
+    def observe(self) -> dict[str, GroupObservation]:
+        n = self.num_worlds
+        column = self.value[:, None, None].astype(np.float32)
+        return {
+            "a": GroupObservation(np.broadcast_to(column, (n, 2, 3)).copy(), np.zeros((n, 2, 5), np.float32)),
+            "b": GroupObservation(np.broadcast_to(column, (n, 1, 2)).copy(), np.zeros((n, 1, 2), np.float32)),
+        }  # fmt: skip
+
+    def state(self) -> np.ndarray:
+        return self.value[:, None].astype(np.float32)
+
+    def render(self, world: int = 0) -> np.ndarray:
+        return np.zeros((4, 4, 3), np.uint8)
+
+
+# --- TorchRL -------------------------------------------------------------------------------
+@pytest.mark.parametrize("num_envs", [1, 3, 16])
+@pytest.mark.parametrize("extended_obs", [False, True])
+def test_tennis_env_specs(num_envs: int, extended_obs: bool) -> None:
+    env = make_env("tennis", num_envs=num_envs, seed=0, extended_obs=extended_obs)
+    check_env_specs(env)
+    td = env.rollout(4, break_when_any_done=False)
+    d_w, d_m = (12, 14) if extended_obs else (8, 10)
+    assert td["racket", "observation"].shape == (num_envs, 4, 4, d_w)
+    assert td["racket", "observation"].dtype == torch.float32
+    assert td["racket", "manager_observation"].shape == (num_envs, 4, 4, d_m)
+    assert td["racket", "team"][0, 0].flatten().tolist() == [0, 0, 1, 1]
+    assert td["racket", "action"].shape == (num_envs, 4, 4, 3)
+    for key in ("reward", "done", "terminated", "truncated"):
+        assert td["next", "racket", key].shape == (num_envs, 4, 4, 1)
+    for key in ("done", "terminated", "truncated", "step_count", "scoring_team"):
+        assert td["next", key].shape == (num_envs, 4, 1)
+
+
+def test_discrete_groups_get_categorical_actions() -> None:
+    env = BatchedGameEnv(CountdownGame(num_worlds=5, seed=0))
+    check_env_specs(env)
+    assert env.full_action_spec["a", "action"].shape == (5, 2)
+    assert env.full_action_spec["b", "action"].n == 4
+    td = env.rollout(6, break_when_any_done=False)
+    assert td["b", "action"].shape == (5, 6, 1)
+    assert td["b", "action"].dtype == torch.int64
+
+
+def test_step_count_and_dones_follow_episodes() -> None:
+    env = BatchedGameEnv(CountdownGame(num_worlds=4, seed=0, max_cycles=3))
+    td = env.reset()
+    assert td["step_count"].flatten().tolist() == [0, 0, 0, 0]
+    actions = torch.zeros(4, 2, dtype=torch.int64)
+    actions[1, 0] = 1  # world 1 ends at once, the others are truncated at step 3
+    td.set(("a", "action"), actions)
+    td.set(("b", "action"), torch.zeros(4, 1, dtype=torch.int64))
+    out = env.step(td)
+    nxt = out["next"]
+    assert nxt["terminated"].flatten().tolist() == [False, True, False, False]
+    assert nxt["a", "terminated"][1].flatten().tolist() == [True, True]
+    assert nxt["a", "reward"][1].flatten().tolist() == [1.0, -1.0]
+    assert nxt["scoring_team"].flatten().tolist() == [-1, 0, -1, -1]
+    assert nxt["step_count"].flatten().tolist() == [1, 1, 1, 1]
+
+    def never_end(td):
+        td.set(("a", "action"), torch.zeros(4, 2, dtype=torch.int64))
+        return td.set(("b", "action"), torch.zeros(4, 1, dtype=torch.int64))
+
+    td = env.rollout(7, policy=never_end, break_when_any_done=False)
+    truncated = td["next", "truncated"][0].flatten().tolist()
+    assert truncated == [False, False, True, False, False, True, False]
+    assert not td["next", "terminated"].any()
+    assert td["step_count"][0].flatten().tolist() == [0, 1, 2, 0, 1, 2, 0]
+
+
+def test_partial_reset_through_the_reset_mask() -> None:
+    env = make_env("tennis", num_envs=4, seed=0)
+    td = env.rollout(5, break_when_any_done=False)[..., -1]["next"].clone()
+    mask = torch.tensor([[True], [False], [True], [False]])
+    td.set("_reset", mask)
+    before = td["racket", "observation"].clone()
+    after = env.reset(td)
+    keep = ~mask.flatten()
+    torch.testing.assert_close(after["racket", "observation"][keep], before[keep])
+    assert after["step_count"].flatten().tolist() == [0, 5, 0, 5]
+    assert not torch.allclose(after["racket", "observation"][~keep], before[~keep])
+    np.testing.assert_array_equal(env.game.step_count, [0, 5, 0, 5])
+
+
+def test_seeding_reproduces_rollouts() -> None:
+    def rollout(seed: int) -> torch.Tensor:
+        env = make_env("tennis", num_envs=3)
+        env.set_seed(seed)
+        torch.manual_seed(0)
+        return env.rollout(30, break_when_any_done=False)["next", "racket", "observation"]
+
+    torch.testing.assert_close(rollout(5), rollout(5))
+    assert not torch.allclose(rollout(5), rollout(6))
+
+
+@pytest.mark.parametrize(
+    ("action", "match"),
+    [(torch.zeros(2, 4, 2), "racket"), (torch.full((2, 4, 3), float("nan")), "racket")],
+)
+def test_bad_torchrl_actions_name_the_group(action: torch.Tensor, match: str) -> None:
+    env = make_env("tennis", num_envs=2, seed=0)
+    td = env.reset()
+    td.set(("racket", "action"), action)
+    with pytest.raises(ValueError, match=match):
+        env.step(td)
+
+
+def test_missing_action_names_the_group() -> None:
+    env = make_env("tennis", num_envs=2, seed=0)
+    with pytest.raises(ValueError, match="racket"):
+        env.step(env.reset())
+
+
+# --- PettingZoo ------------------------------------------------------------------------------
+def test_pettingzoo_parallel_api() -> None:
+    parallel_api_test(tennis_parallel_env(max_cycles=200), num_cycles=600)
+
+
+def test_pettingzoo_seed() -> None:
+    parallel_seed_test(lambda: tennis_parallel_env(max_cycles=200))
+
+
+def test_pettingzoo_render_and_aec_api() -> None:
+    render_test(tennis_aec_env)
+    api_test(tennis_aec_env(max_cycles=100), num_cycles=200)
+    frame = tennis_parallel_env(render_mode="rgb_array").render()
+    assert frame is not None and frame.dtype == np.uint8 and frame.shape[2] == 3
+    assert frame.std() > 0  # something is drawn
+
+
+def test_pettingzoo_infos_state_and_episode_end() -> None:
+    env = tennis_parallel_env(max_cycles=3, extended_obs=True)
+    observations, infos = env.reset(seed=1)
+    assert observations["racket_3"].shape == (12,)
+    assert infos["racket_3"]["manager_observation"].shape == (14,)
+    assert infos["racket_3"]["team"] == 1
+    assert env.state().shape == env.state_space.shape == (24,)
+    zero = {agent: np.zeros(3, np.float32) for agent in env.agents}
+    for step in range(3):
+        _, rewards, terminations, truncations, _ = env.step(zero)
+        assert set(rewards) == set(env.possible_agents)
+        assert all(truncations.values()) == (step == 2)
+        assert not any(terminations.values())
+    assert env.agents == []
+    with pytest.raises(ValueError, match="reset"):
+        env.step(zero)
+
+
+def test_pettingzoo_bad_agents_are_named() -> None:
+    env = tennis_parallel_env()
+    env.reset(seed=0)
+    actions = {agent: np.zeros(3, np.float32) for agent in env.agents}
+    with pytest.raises(ValueError, match="racket_9"):
+        env.step({**actions, "racket_9": np.zeros(3)})
+    with pytest.raises(ValueError, match="racket_2"):
+        env.step({agent: a for agent, a in actions.items() if agent != "racket_2"})
+    with pytest.raises(ValueError, match="racket_1"):
+        env.step({**actions, "racket_1": np.zeros(2)})
+    with pytest.raises(ValueError, match="racket_9"):
+        env.action_space("racket_9")
+
+
+def test_pettingzoo_wraps_discrete_games_and_one_world_only() -> None:
+    env = BatchedGameParallelEnv(CountdownGame(seed=0))
+    parallel_api_test(env, num_cycles=50)
+    assert env.action_space("b_0").n == 4
+    with pytest.raises(ValueError, match="one world"):
+        BatchedGameParallelEnv(make_game("tennis", num_envs=2))
