@@ -1,0 +1,163 @@
+"""Actors and critics built from specs: shapes, bounds, shared weights, bad input."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+from tensordict import TensorDict
+from torchrl.data import Bounded, Categorical, Composite, OneHot, Unbounded
+
+from rlhc.modules import (
+    EnvSpecs,
+    NetworkConfig,
+    make_actor,
+    make_manager_critic,
+    make_worker_critic,
+)
+
+CFG = NetworkConfig(num_layers=2, hidden_size=16)
+N_WORLDS, STEPS = 5, 3
+
+
+def specs(group: str, n_agents: int, action: object, d_w: int = 8, d_m: int = 10) -> EnvSpecs:
+    """Specs with the env's batch dim ``[N_WORLDS]``, as a TorchRL env reports them."""
+    obs = Composite(
+        {
+            group: Composite(
+                observation=Unbounded((N_WORLDS, n_agents, d_w)),
+                manager_observation=Unbounded((N_WORLDS, n_agents, d_m)),
+                shape=(N_WORLDS, n_agents),
+            )
+        },
+        shape=(N_WORLDS,),
+    )
+    act = Composite(
+        {group: Composite(action=action, shape=(N_WORLDS, n_agents))}, shape=(N_WORLDS,)
+    )
+    return EnvSpecs(obs, act)
+
+
+TENNIS = specs("racket", 4, Bounded(-1.0, 1.0, (N_WORLDS, 4, 3)))
+STRIKER = specs("striker", 2, Categorical(6, (N_WORLDS, 2)), d_w=112, d_m=200)
+
+
+def observations(group: str, n_agents: int, d_w: int = 8, d_m: int = 10) -> TensorDict:
+    return TensorDict(
+        {
+            group: {
+                "observation": 3 * torch.randn(N_WORLDS, STEPS, n_agents, d_w),
+                "manager_observation": torch.randn(N_WORLDS, STEPS, n_agents, d_m),
+            }
+        },
+        batch_size=(N_WORLDS, STEPS),
+    )
+
+
+def test_continuous_actor_shapes_and_bounds() -> None:
+    actor = make_actor(TENNIS, "racket", CFG)
+    td = actor(observations("racket", 4))
+    action = td["racket", "action"]
+    assert action.shape == (N_WORLDS, STEPS, 4, 3)
+    assert td["racket", "action_log_prob"].shape == (N_WORLDS, STEPS, 4)
+    assert action.abs().max() <= 1.0
+    assert td["racket", "action_log_prob"].isfinite().all()
+
+
+def test_continuous_actor_respects_asymmetric_bounds() -> None:
+    low = torch.tensor([-2.0, 0.0, -0.5])
+    high = torch.tensor([0.5, 1.0, 0.5])
+    spec = Bounded(low.expand(N_WORLDS, 4, 3), high.expand(N_WORLDS, 4, 3), (N_WORLDS, 4, 3))
+    actor = make_actor(specs("racket", 4, spec), "racket", CFG)
+    with torch.no_grad():
+        action = actor(observations("racket", 4).expand(20, N_WORLDS, STEPS).clone())[
+            "racket", "action"
+        ]
+    assert (action >= low).all() and (action <= high).all()
+    # The squashing really spans the box, not [-1, 1] rescaled to part of it.
+    assert (action.amin(dim=(0, 1, 2, 3)) < low + 0.5 * (high - low)).all()
+
+
+def test_discrete_actor_matches_the_categorical_spec() -> None:
+    actor = make_actor(STRIKER, "striker", CFG)
+    td = actor(observations("striker", 2, 112, 200))
+    action = td["striker", "action"]
+    assert action.shape == (N_WORLDS, STEPS, 2)
+    assert action.dtype == torch.int64
+    assert ((action >= 0) & (action < 6)).all()
+    assert td["striker", "logits"].shape == (N_WORLDS, STEPS, 2, 6)
+    assert td["striker", "action_log_prob"].shape == (N_WORLDS, STEPS, 2)
+    assert STRIKER.full_action_spec["striker", "action"].is_in(action[:, 0])
+
+
+@pytest.mark.parametrize(
+    ("make", "leaf", "d_w", "d_m"),
+    [(make_worker_critic, "worker_value", 8, 10), (make_manager_critic, "manager_value", 8, 10)],
+)
+def test_critic_shapes(make: object, leaf: str, d_w: int, d_m: int) -> None:
+    critic = make(TENNIS, "racket", CFG)  # type: ignore[operator]
+    td = critic(observations("racket", 4, d_w, d_m))
+    assert td["racket", leaf].shape == (N_WORLDS, STEPS, 4, 1)
+
+
+def test_critics_read_their_own_observation() -> None:
+    worker = make_worker_critic(TENNIS, "racket", CFG)
+    manager = make_manager_critic(TENNIS, "racket", CFG)
+    assert worker.in_keys == [("racket", "observation")]
+    assert manager.in_keys == [("racket", "manager_observation")]
+
+
+BUILDERS = {"actor": make_actor, "worker": make_worker_critic, "manager": make_manager_critic}
+
+
+@pytest.mark.parametrize("name", BUILDERS)
+def test_one_set_of_weights_whatever_the_number_of_agents(name: str) -> None:
+    def n_params(n_agents: int) -> int:
+        env = specs("racket", n_agents, Bounded(-1.0, 1.0, (N_WORLDS, n_agents, 3)))
+        return sum(p.numel() for p in BUILDERS[name](env, "racket", CFG).parameters())
+
+    assert n_params(2) == n_params(4) == n_params(7)
+
+
+@pytest.mark.parametrize("name", BUILDERS)
+def test_agents_are_interchangeable(name: str) -> None:
+    # Shared weights: swapping two agents' inputs swaps their outputs.
+    module = BUILDERS[name](TENNIS, "racket", CFG)
+    key = {"actor": ("racket", "loc"), "worker": ("racket", "worker_value")}.get(
+        name, ("racket", "manager_value")
+    )
+    order = [3, 1, 2, 0]
+    td = observations("racket", 4)
+    swapped = td.clone()
+    for leaf in ("observation", "manager_observation"):
+        swapped["racket", leaf] = td["racket", leaf][..., order, :]
+    with torch.no_grad():
+        first = module(td)[key]
+        second = module(swapped)[key]
+    torch.testing.assert_close(second, first[..., order, :])
+
+
+def test_network_config_validation() -> None:
+    assert NetworkConfig().activation_class is torch.nn.Tanh
+    with pytest.raises(ValueError, match=r"unknown activation 'swish'; choose one of \['elu'"):
+        NetworkConfig(activation="swish")
+    with pytest.raises(ValueError, match="num_layers must be >= 1"):
+        NetworkConfig(num_layers=0)
+    with pytest.raises(ValueError, match="hidden_size must be >= 1"):
+        NetworkConfig(hidden_size=0)
+
+
+def test_config_sets_depth_and_width() -> None:
+    critic = make_worker_critic(TENNIS, "racket", NetworkConfig(num_layers=3, hidden_size=32))
+    linears = [m for m in critic.modules() if isinstance(m, torch.nn.Linear)]
+    assert [lin.out_features for lin in linears] == [32, 32, 32, 1]
+
+
+def test_unknown_group_names_the_groups() -> None:
+    with pytest.raises(KeyError, match=r"no entry \('goalie', 'observation'\).*\['racket'\]"):
+        make_worker_critic(TENNIS, "goalie", CFG)
+
+
+def test_unsupported_action_spec() -> None:
+    one_hot = specs("striker", 2, OneHot(6, (N_WORLDS, 2, 6)))
+    with pytest.raises(TypeError, match=r"is OneHot.*expected Bounded"):
+        make_actor(one_hot, "striker", CFG)

@@ -1,0 +1,212 @@
+"""The two-critic ``ClipPPOLoss``: outputs, gradients, and a short PPO update."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import pytest
+import torch
+from rlhc_synthetic import D_WORKER, GROUP, make_batch, make_specs
+from tensordict import TensorDict
+from torch.testing import assert_close
+
+from rlhc.modules import NetworkConfig, make_actor, make_manager_critic, make_worker_critic
+from rlhc.objectives import (
+    LOSS_KEYS,
+    HierarchicalPPOLoss,
+    HierarchicalValueEstimator,
+    make_ppo_loss,
+)
+
+DIAGNOSTICS = (
+    "loss_worker_critic",
+    "loss_manager_critic",
+    "entropy",
+    "kl_approx",
+    "clip_fraction",
+    "explained_variance",
+)
+
+
+def build_loss(networks: Callable, **kwargs: object) -> HierarchicalPPOLoss:
+    actor, worker, manager = networks()
+    return make_ppo_loss(
+        actor=actor, worker_critic=worker, manager_critic=manager, group=GROUP, **kwargs
+    )
+
+
+def collected(loss: HierarchicalPPOLoss, **batch_kwargs: object) -> TensorDict:
+    """Synthetic data with actions and log-probs from the loss's own actor."""
+    data = make_batch(**batch_kwargs)
+    with torch.no_grad():
+        loss.actor_network(data)
+    return data
+
+
+def test_output_keys(networks: Callable) -> None:
+    loss = build_loss(networks)
+    out = loss(collected(loss))
+    for key in (*LOSS_KEYS, *DIAGNOSTICS):
+        assert key in out, key
+        assert out[key].shape == (), key
+    assert set(loss.out_keys) >= {*LOSS_KEYS, *DIAGNOSTICS}
+
+
+def test_critic_loss_is_the_sum_of_both_terms(networks: Callable) -> None:
+    loss = build_loss(networks, critic_coef=0.5, loss_critic_type="l2")
+    data = collected(loss)
+    out = loss(data)
+    assert_close(out["loss_critic"], out["loss_worker_critic"] + out["loss_manager_critic"])
+    # Recompute by hand: 0.5 * mean((target - V)^2) for each critic.
+    loss.value_estimator(data)
+    target = data[GROUP, "value_target"]
+    with torch.no_grad():
+        worker = loss.value_estimator.worker_value_network(data.clone())[GROUP, "worker_value"]
+        manager = loss.value_estimator.manager_value_network(data.clone())[GROUP, "manager_value"]
+    assert_close(out["loss_worker_critic"], 0.5 * (target - worker).pow(2).mean())
+    assert_close(out["loss_manager_critic"], 0.5 * (target - manager).pow(2).mean())
+    fused = torch.maximum(worker, manager)
+    explained = 1 - (target - fused).var(correction=0) / target.var(correction=0)
+    assert_close(out["explained_variance"], explained)
+
+
+def test_only_the_loss_terms_carry_gradient(networks: Callable) -> None:
+    loss = build_loss(networks)
+    out = loss(collected(loss))
+    for key in LOSS_KEYS:
+        assert out[key].requires_grad, key
+    for key in DIAGNOSTICS:
+        assert not out[key].requires_grad, key
+
+
+def test_loss_does_not_write_into_the_callers_data(networks: Callable) -> None:
+    loss = build_loss(networks)
+    data = collected(loss)
+    before = set(data.keys(True, True))
+    loss(data)
+    assert set(data.keys(True, True)) == before
+
+
+def test_both_critics_learn_even_when_the_manager_always_wins(networks: Callable) -> None:
+    loss = build_loss(networks, fusion="max")
+    manager = loss.value_estimator.manager_value_network
+    with torch.no_grad():  # push V_m far above V_w: the manager wins every max
+        last_bias = [p for name, p in manager.named_parameters() if name.endswith("bias")][-1]
+        last_bias.add_(100.0)
+    data = collected(loss)
+    loss.value_estimator(data)
+    assert (data[GROUP, "manager_selected"] == 1).all()
+    out = loss(data)
+    out["loss_critic"].backward()
+    for critic in (loss.value_estimator.worker_value_network, manager):
+        for name, param in critic.named_parameters():
+            assert param.grad is not None and param.grad.abs().sum() > 0, name
+
+
+def test_policy_gets_no_gradient_through_the_fused_value(networks: Callable) -> None:
+    loss = build_loss(networks)
+    data = collected(loss)
+    loss.value_estimator(data)
+    assert not data[GROUP, "advantage"].requires_grad
+    out = loss(data)
+    (out["loss_objective"] + out["loss_entropy"]).backward()
+    estimator = loss.value_estimator
+    for critic in (estimator.worker_value_network, estimator.manager_value_network):
+        assert all(p.grad is None for p in critic.parameters())
+    assert all(p.grad is not None for p in loss.actor_network.parameters())
+
+
+def test_parameters_are_the_networks_own_and_listed_once(networks: Callable) -> None:
+    actor, worker, manager = networks()
+    loss = make_ppo_loss(actor=actor, worker_critic=worker, manager_critic=manager, group=GROUP)
+    expected = {*actor.parameters(), *worker.parameters(), *manager.parameters()}
+    params = list(loss.parameters())
+    assert {id(p) for p in params} == {id(p) for p in expected}
+    assert len(params) == len(expected)
+
+
+def test_short_ppo_update_lowers_both_critic_losses(networks: Callable) -> None:
+    loss = build_loss(networks, fusion="max")
+    data = collected(loss, batch=(8,), steps=16, seed=4, p_terminated=0.5)
+    # A learnable problem: short episodes, a reward read off the worker observation, and
+    # a manager that sees what the worker sees plus more (as in tennis, d_m = d_w + 2).
+    data["next", GROUP, "reward"] = 2.0 * data[GROUP, "observation"][..., :1]
+    for root in (data, data["next"]):
+        root[GROUP, "manager_observation"][..., :D_WORKER] = root[GROUP, "observation"]
+    with torch.no_grad():
+        loss.value_estimator(data)  # targets fixed for the update, as in PPO
+    flat = data.reshape(-1)
+    optimiser = torch.optim.Adam(loss.parameters(), lr=3e-3)
+    first = loss(flat)
+    for _ in range(40):
+        out = loss(flat)
+        optimiser.zero_grad()
+        sum(out[key] for key in LOSS_KEYS).backward()
+        optimiser.step()
+    last = loss(flat)
+    for key in ("loss_worker_critic", "loss_manager_critic"):
+        assert last[key] < 0.8 * first[key], (key, first[key].item(), last[key].item())
+
+
+def test_attaching_an_estimator_by_assignment(networks: Callable) -> None:
+    actor, worker, manager = networks()
+    loss = HierarchicalPPOLoss(actor, worker, manager)
+    loss.set_keys(
+        reward=(GROUP, "reward"),
+        done=(GROUP, "done"),
+        terminated=(GROUP, "terminated"),
+        advantage=(GROUP, "advantage"),
+        value_target=(GROUP, "value_target"),
+        value=(GROUP, "state_value"),
+        worker_value=(GROUP, "worker_value"),
+        manager_value=(GROUP, "manager_value"),
+    )
+    estimator = HierarchicalValueEstimator(
+        worker_value_network=worker, manager_value_network=manager, gamma=0.9, lmbda=0.9
+    )
+    loss.value_estimator = estimator  # keys are forwarded from the loss
+    assert loss.value_estimator is estimator
+    assert estimator.tensor_keys.reward == (GROUP, "reward")
+    assert estimator.tensor_keys.worker_value == (GROUP, "worker_value")
+    out = loss(collected(loss))
+    assert out["loss_critic"].isfinite()
+
+
+def test_manager_interval_loss_runs_on_minibatches(networks: Callable) -> None:
+    # The trainer estimates on [N, T] data, then scores flat minibatches.
+    loss = build_loss(networks, fusion="max", manager_interval=5)
+    data = collected(loss)
+    with torch.no_grad():
+        loss.value_estimator(data)
+    out = loss(data.reshape(-1)[:10])
+    assert out["loss_critic"].isfinite()
+
+
+def test_discrete_group() -> None:
+    specs = make_specs(group="striker", n_agents=2, discrete=6)
+    cfg = NetworkConfig(hidden_size=16)
+    loss = make_ppo_loss(
+        actor=make_actor(specs, "striker", cfg),
+        worker_critic=make_worker_critic(specs, "striker", cfg),
+        manager_critic=make_manager_critic(specs, "striker", cfg),
+        group="striker",
+    )
+    data = make_batch(group="striker", n_agents=2)
+    with torch.no_grad():
+        loss.actor_network(data)
+    assert data["striker", "action"].dtype == torch.int64
+    out = loss(data)
+    sum(out[key] for key in LOSS_KEYS).backward()
+    assert out["entropy"] > 0
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0])
+def test_critic_coefficient_must_be_positive(networks: Callable, bad: float) -> None:
+    with pytest.raises(ValueError, match="critic_coeff must be > 0"):
+        build_loss(networks, critic_coef=bad)
+
+
+def test_value_clipping_is_refused(networks: Callable) -> None:
+    actor, worker, manager = networks()
+    with pytest.raises(ValueError, match="clip_value is not supported"):
+        HierarchicalPPOLoss(actor, worker, manager, clip_value=0.2)
