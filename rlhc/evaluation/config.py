@@ -1,0 +1,107 @@
+"""Hydra schema of ``python -m rlhc.evaluate`` (values live in ``conf/evaluate.yaml``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from hydra.core.config_store import ConfigStore
+from omegaconf import MISSING
+
+from rlhc.config import register_configs
+
+MODES = ("match", "elo")
+ENVS = ("tennis", "soccer")
+
+
+@dataclass
+class VideoConfig:
+    """An optional video of one match (home on team 0), next to the results.
+
+    Attributes:
+        enabled: record it.
+        format: ``gif`` (Pillow) or ``mp4`` (imageio + ffmpeg).
+        max_frames: the match is cut after ``max_frames - 1`` steps.
+        fps: frames per second (``None``: the game's ``render_fps``).
+    """
+
+    enabled: bool = False
+    format: str = "gif"
+    max_frames: int = 1500
+    fps: int | None = None
+
+
+@dataclass
+class EvaluateConfig:
+    """Head-to-head matches (``mode=match``) or an Elo round robin (``mode=elo``).
+
+    A *player* is ``random``, ``scripted``, a checkpoint file or a run directory (its
+    ``checkpoints/latest.pt``).
+
+    Attributes:
+        mode: ``match``: ``home`` against ``away``; ``elo``: every pair of ``players``.
+        env: the game (group ``env``, as in ``rlhc.run``): ``env.name``, ``env.num_envs``
+            (worlds played in parallel; ``None``: ``min(32, matches)``), ``env.max_cycles``
+            and, for tennis, ``env.extended_obs``. Options a checkpoint was trained with
+            (e.g. ``extended_obs``) override these, since its policy depends on them.
+        home: the home player (``mode=match``).
+        away: the away player (``mode=match``).
+        players: the players of the round robin (``mode=elo``).
+        matches: matches per series (per pairing in ``mode=elo``); half with home on
+            each side when ``swap_sides``.
+        deterministic: the policies' mode action; ``false``: sampled actions.
+        swap_sides: alternate the home player's team between matches.
+        points_to_win: first to this many points wins (``None``: tennis 5, soccer 1).
+        max_match_steps: a match still undecided after this many steps is a draw
+            (``None``: ``max_cycles × points_to_win``).
+        k_factor: Elo K-factor.
+        initial_rating: every player's Elo before the first match.
+        video: record one match of the series (``mode=match``).
+        seed: seeds torch (random players, sampled actions) and the game.
+        threads: torch intra-op threads.
+    """
+
+    mode: str = "match"
+    env: Any = MISSING
+    home: str = "scripted"
+    away: str = "random"
+    players: list[str] = field(default_factory=list)
+    matches: int = 100
+    deterministic: bool = True
+    swap_sides: bool = True
+    points_to_win: int | None = None
+    max_match_steps: int | None = None
+    k_factor: float = 32.0
+    initial_rating: float = 1200.0
+    video: VideoConfig = field(default_factory=VideoConfig)
+    seed: int = 0
+    threads: int = 1
+
+    def num_envs(self) -> int:
+        """Worlds played in parallel: ``env.num_envs``, else up to 32, never above ``matches``."""
+        return min(self.env.num_envs or 32, self.matches)
+
+
+def validate_evaluate(cfg: EvaluateConfig) -> None:
+    """Check what the schema cannot express; errors name the key and the allowed values."""
+    if cfg.mode not in MODES:
+        raise ValueError(f"mode={cfg.mode!r}; allowed: {', '.join(MODES)}")
+    if cfg.env.name not in ENVS:
+        raise ValueError(f"env={cfg.env.name!r}; allowed: {', '.join(ENVS)}")
+    if cfg.matches < 1 or (cfg.env.num_envs is not None and cfg.env.num_envs < 1):
+        raise ValueError(
+            f"matches={cfg.matches}, env.num_envs={cfg.env.num_envs}; both must be >= 1"
+        )
+    if cfg.mode == "elo" and len(set(cfg.players)) < 2:
+        raise ValueError(
+            "mode=elo needs at least two distinct players, e.g. "
+            "'players=[scripted,random,outputs/soccer/hierarchical/<time>]'"
+        )
+    if cfg.video.format not in ("gif", "mp4"):
+        raise ValueError(f"video.format={cfg.video.format!r}; allowed: gif, mp4")
+
+
+def register_evaluate_configs() -> None:
+    """Register the schema (and the ``env`` group's) so that ``conf/evaluate.yaml`` can name it."""
+    register_configs()
+    ConfigStore.instance().store(name="evaluate_schema", node=EvaluateConfig)

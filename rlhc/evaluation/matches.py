@@ -1,0 +1,304 @@
+"""Head-to-head matches between two team policies, many at once in one batched env.
+
+**Sides.** Match ``i`` puts the *home* policy on team ``i % 2`` (with ``swap_sides``),
+so over an even number of matches each policy plays exactly half on each side and any
+asymmetry of the game (serve order, pymunk solver order) cancels. Each world runs its
+matches one after another; routing is a per-world tensor ``home_side [K]``, so there
+is no Python loop over worlds: an agent takes the home action where its
+``(g, "team")`` equals its world's ``home_side``.
+
+**Scoring.** Every step, the env reports ``("next", "scoring_team")``: the team that
+won the point or goal, ``-1`` if none. A match is won by the first team to
+``points_to_win`` points; it is a draw when ``max_steps`` steps pass first. Defaults
+(:func:`default_rules`): soccer — one goal wins and the step budget is one episode
+(``max_cycles``), so no goal by truncation is a draw; tennis — first to 5 points
+(a truncated rally scores nothing and a new serve follows), within 5 rallies of
+``max_cycles`` steps.
+
+**Outcome statistics** (:class:`MatchResult`): wins, draws and losses from the home
+policy's view, each rate with its 95% Wilson interval (:func:`~rlhc.evaluation.stats.wilson_interval`),
+the mean points of both sides and the mean match length.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+from tensordict import TensorDictBase
+from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
+
+from rlhc.envs import make_env
+from rlhc.envs.torchrl_adapter import BatchedGameEnv
+from rlhc.evaluation.opponents import TeamPolicy, make_team_policy, player_options
+from rlhc.evaluation.stats import wilson_interval
+
+#: Called after the first reset and after every step with the env's current TensorDict,
+#: the points ``[K, 2]`` of the running matches (by team) and their steps ``[K]``
+#: (used to record videos).
+StepCallback = Callable[[TensorDictBase, np.ndarray, np.ndarray], None]
+DEFAULT_POINTS = {"tennis": 5, "soccer": 1}
+
+
+@dataclass(frozen=True)
+class MatchRules:
+    """When a match ends.
+
+    Attributes:
+        points_to_win: the first team to this many points wins.
+        max_steps: a match still undecided after this many steps is a draw.
+    """
+
+    points_to_win: int
+    max_steps: int
+
+
+def default_rules(
+    env_name: str, max_cycles: int, points_to_win: int | None = None, max_steps: int | None = None
+) -> MatchRules:
+    """The rules of the module docstring, with optional overrides."""
+    points = points_to_win if points_to_win is not None else DEFAULT_POINTS.get(env_name, 1)
+    budget = max_steps if max_steps is not None else max_cycles * (1 if points == 1 else points)
+    if points < 1 or budget < 1:
+        raise ValueError(f"points_to_win and max_steps must be >= 1, got {points}, {budget}")
+    return MatchRules(points, budget)
+
+
+@dataclass
+class MatchResult:
+    """Per-match records of a series, from the home policy's point of view.
+
+    Attributes:
+        home: the home player's name; ``away`` likewise.
+        home_side: ``[M]`` the team (0/1) the home policy played in each match.
+        home_points: ``[M]`` points of the home side; ``away_points`` likewise.
+        steps: ``[M]`` match length in env steps.
+    """
+
+    home: str
+    away: str
+    home_side: np.ndarray
+    home_points: np.ndarray
+    away_points: np.ndarray
+    steps: np.ndarray
+
+    @property
+    def outcomes(self) -> np.ndarray:
+        """``[M]``: +1 home win, 0 draw, -1 home loss."""
+        return np.sign(self.home_points - self.away_points).astype(np.int64)
+
+    @property
+    def scores(self) -> np.ndarray:
+        """``[M]`` the home player's Elo score per match: 1, 0.5 or 0."""
+        return (self.outcomes + 1) / 2.0
+
+    def summary(self, confidence: float = 0.95) -> dict[str, Any]:
+        """Counts, rates with Wilson intervals, mean points and length (JSON-ready)."""
+        n = len(self.outcomes)
+        wins, draws = int((self.outcomes > 0).sum()), int((self.outcomes == 0).sum())
+        losses = n - wins - draws
+        summary: dict[str, Any] = {"home": self.home, "away": self.away, "matches": n}
+        for name, count in (("wins", wins), ("draws", draws), ("losses", losses)):
+            low, high = wilson_interval(count, n, confidence)
+            rate = name[:-1] if name != "losses" else "loss"
+            summary[name] = count
+            summary[f"{rate}_rate"] = count / n if n else math.nan
+            summary[f"{rate}_rate_ci"] = [low, high]
+        summary["score"] = float(self.scores.mean()) if n else math.nan
+        summary["home_points_mean"] = float(self.home_points.mean()) if n else math.nan
+        summary["away_points_mean"] = float(self.away_points.mean()) if n else math.nan
+        summary["length_mean"] = float(self.steps.mean()) if n else math.nan
+        summary["confidence"] = confidence
+        return summary
+
+    def rows(self) -> list[dict[str, int]]:
+        """One CSV row per match."""
+        return [
+            {
+                "match": i,
+                "home_side": int(self.home_side[i]),
+                "home_points": int(self.home_points[i]),
+                "away_points": int(self.away_points[i]),
+                "outcome": int(self.outcomes[i]),
+                "steps": int(self.steps[i]),
+            }
+            for i in range(len(self.steps))
+        ]
+
+
+def _route(
+    tensordict: TensorDictBase,
+    home: dict[str, torch.Tensor],
+    away: dict[str, torch.Tensor],
+    home_side: torch.Tensor,
+) -> None:
+    """Write each agent's action from the policy that controls its team, in place."""
+    for group, home_action in home.items():
+        team = tensordict[group, "team"].squeeze(-1)  # [K, n_g]
+        is_home = team == home_side.view(-1, 1)
+        mask = is_home.view(*is_home.shape, *([1] * (home_action.dim() - is_home.dim())))
+        tensordict.set((group, "action"), torch.where(mask, home_action, away[group]))
+
+
+def play_matches(
+    env: BatchedGameEnv,
+    home: TeamPolicy,
+    away: TeamPolicy,
+    matches: int,
+    rules: MatchRules,
+    *,
+    deterministic: bool = True,
+    swap_sides: bool = True,
+    first_side: int = 0,
+    names: tuple[str, str] = ("home", "away"),
+    on_step: StepCallback | None = None,
+) -> MatchResult:
+    """Play ``matches`` matches of ``home`` against ``away`` in the batched ``env``.
+
+    Args:
+        env: the match env; its ``K = batch_size[0]`` worlds play matches in parallel.
+        home: the home team policy; ``away`` likewise.
+        matches: how many matches (``M >= 1``).
+        rules: when a match ends.
+        deterministic: the policies' mode action (``True``) or a sample.
+        swap_sides: alternate home's team from match to match (else always ``first_side``).
+        first_side: home's team (0 or 1) in match 0.
+        names: the two players' names, recorded in the result.
+        on_step: called after every step (see :data:`StepCallback`).
+
+    Returns:
+        Per-match records, in match order.
+    """
+    if matches < 1:
+        raise ValueError(f"matches must be >= 1, got {matches}")
+    k = int(env.batch_size[0])
+    match_of_world = np.arange(k)  # the match each world is playing; >= matches: idle
+    points = np.zeros((k, 2), dtype=np.int64)
+    match_steps = np.zeros(k, dtype=np.int64)
+    if first_side not in (0, 1):
+        raise ValueError(f"first_side must be 0 or 1, got {first_side}")
+    home_side = np.full(matches, first_side, dtype=np.int64)
+    if swap_sides:
+        home_side[1::2] = 1 - first_side
+    record_home = np.zeros(matches, dtype=np.int64)
+    record_away = np.zeros(matches, dtype=np.int64)
+    record_steps = np.zeros(matches, dtype=np.int64)
+    next_match = k
+    exploration = ExplorationType.DETERMINISTIC if deterministic else ExplorationType.RANDOM
+    tensordict = env.reset()
+    if on_step is not None:
+        on_step(tensordict, points, match_steps)
+    with torch.no_grad(), set_exploration_type(exploration):
+        while (match_of_world < matches).any():
+            side = torch.from_numpy(home_side[np.minimum(match_of_world, matches - 1)])
+            _route(tensordict, home(tensordict), away(tensordict), side)
+            tensordict = env.step(tensordict)
+            scoring = tensordict["next", "scoring_team"].view(k).numpy()
+            done = tensordict["next", "done"].view(k).numpy()
+            tensordict = step_mdp(tensordict)
+            for team in (0, 1):
+                points[:, team] += scoring == team
+            match_steps += 1
+            over = (points.max(axis=1) >= rules.points_to_win) | (match_steps >= rules.max_steps)
+            finished = over & (match_of_world < matches)
+            if finished.any():
+                index = match_of_world[finished]
+                sides = home_side[index]
+                record_home[index] = points[finished, sides]
+                record_away[index] = points[finished, 1 - sides]
+                record_steps[index] = match_steps[finished]
+                # Finished worlds take the next unplayed matches, in world order.
+                worlds = np.flatnonzero(finished)
+                match_of_world[worlds] = next_match + np.arange(len(worlds))
+                next_match += len(worlds)
+            if on_step is not None:
+                on_step(tensordict, points, match_steps)
+            points[over] = 0
+            match_steps[over] = 0
+            reset = done | over
+            if reset.any():
+                tensordict.set("_reset", torch.from_numpy(reset).view(k, 1))
+                tensordict = env.reset(tensordict)
+    return MatchResult(names[0], names[1], home_side, record_home, record_away, record_steps)
+
+
+def make_match_env(
+    env_name: str,
+    num_envs: int,
+    seed: int,
+    players: list[str],
+    env_options: dict[str, Any] | None = None,
+) -> BatchedGameEnv:
+    """The batched env of a match between ``players``.
+
+    Game options are ``env_options``, except those the checkpoint players were trained
+    with (e.g. ``extended_obs``), which win: their policies cannot see anything else.
+    A checkpoint that overrides a given option is reported on stdout.
+    """
+    options = dict(env_options or {})
+    for key, value in player_options(players, env_name).items():
+        if key in options and options[key] != value:
+            print(f"note: env.{key}={options[key]!r} replaced by the checkpoints' {value!r}")
+        options[key] = value
+    env = make_env(env_name, num_envs=num_envs, seed=seed, **options)
+    assert isinstance(env, BatchedGameEnv)
+    return env
+
+
+def evaluate_against(
+    policy: TeamPolicy,
+    opponent: str = "scripted",
+    env: str | BatchedGameEnv = "soccer",
+    matches: int = 50,
+    *,
+    num_envs: int = 16,
+    seed: int = 0,
+    deterministic: bool = True,
+    points_to_win: int | None = None,
+    max_steps: int | None = None,
+    env_options: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Win rate of ``policy`` against a built-in opponent (for periodic evaluation).
+
+    Args:
+        policy: ``tensordict -> {group: actions}`` on *raw* env observations (e.g. a
+            :class:`~rlhc.evaluation.policies.RestoredPolicy`, or the trainer's actors
+            behind a frozen copy of its normaliser).
+        opponent: ``"scripted"``, ``"random"`` or a checkpoint path.
+        env: a game name, or a match env from :func:`rlhc.envs.make_env` (reused as is).
+        matches: matches to play (half on each side).
+        num_envs: worlds in parallel when ``env`` is a name.
+        seed: the game's seed when ``env`` is a name.
+        deterministic: mode actions rather than samples.
+        points_to_win: override of :func:`default_rules`; ``max_steps`` likewise.
+        env_options: game options when ``env`` is a name (e.g. ``extended_obs=True``).
+
+    Returns:
+        :meth:`MatchResult.summary`: ``win_rate``, ``win_rate_ci``, ``draw_rate``, …
+
+    Examples:
+        >>> from rlhc.envs import make_env
+        >>> from rlhc.evaluation.opponents import make_team_policy
+        >>> env = make_env("soccer", num_envs=4, seed=0, max_cycles=50)
+        >>> result = evaluate_against(make_team_policy("random", env), "scripted", env, 4)
+        >>> result["matches"]
+        4
+    """
+    if isinstance(env, str):
+        env = make_env(env, num_envs=min(num_envs, matches), seed=seed, **(env_options or {}))
+    assert isinstance(env, BatchedGameEnv)
+    rules = default_rules(env.game.name, env.game.max_cycles, points_to_win, max_steps)
+    result = play_matches(
+        env,
+        policy,
+        make_team_policy(opponent, env),
+        matches,
+        rules,
+        deterministic=deterministic,
+        names=("policy", opponent),
+    )
+    return result.summary()

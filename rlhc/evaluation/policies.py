@@ -1,0 +1,118 @@
+"""Rebuild a trained policy (actors + frozen observation normaliser) from a checkpoint.
+
+A checkpoint (:meth:`rlhc.trainer.Trainer.state`) stores the resolved training config,
+each group's actor weights and the state of the training env's transforms. When
+``algo.normalize_observations`` was on, that state holds a TorchRL ``VecNormV2`` over
+``(g, "observation")`` and ``(g, "manager_observation")``; the actors were trained on
+normalised observations, so a restored policy must see its inputs through the *same*
+statistics, frozen. The training env is rebuilt with :func:`rlhc.builders.make_training_env`
+(one world) so that the normaliser's settings (decay, eps, keys) come from the one
+place that defines them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import torch
+from omegaconf import OmegaConf
+from tensordict import TensorDictBase
+from torchrl.envs import EnvBase, VecNormV2
+
+from rlhc.builders import make_training_env, network_config
+from rlhc.config import TrainConfig
+from rlhc.envs.config import SoccerEnvConfig, TennisEnvConfig
+from rlhc.modules import make_actor
+
+ENV_SCHEMAS: dict[str, type] = {"tennis": TennisEnvConfig, "soccer": SoccerEnvConfig}
+#: Env config fields that do not change what a policy observes.
+NON_OBSERVATION_OPTIONS = ("name", "num_envs", "max_cycles")
+
+
+def checkpoint_config(state: Mapping[str, Any]) -> TrainConfig:
+    """The checkpoint's training config as a typed :class:`TrainConfig`."""
+    name = state["env"]
+    schema = OmegaConf.structured(TrainConfig(env=ENV_SCHEMAS[name]()))
+    return OmegaConf.to_object(OmegaConf.merge(schema, state["config"]))  # type: ignore[return-value]
+
+
+def observation_options(state: Mapping[str, Any]) -> dict[str, Any]:
+    """The game options a checkpoint's policy depends on (e.g. ``extended_obs``)."""
+    env = dict(state["config"]["env"])
+    return {
+        key: value
+        for key, value in env.items()
+        if key not in NON_OBSERVATION_OPTIONS and value is not None
+    }
+
+
+@dataclass
+class RestoredPolicy:
+    """Per-group actors of a checkpoint with their frozen observation normaliser.
+
+    Attributes:
+        actors: ``group -> ProbabilisticActor`` reading ``(g, "observation")``.
+        loc: ``group -> [n_g, d_w]`` normaliser mean, or ``None`` (no normalisation).
+        scale: ``group -> [n_g, d_w]`` normaliser scale, or ``None``.
+    """
+
+    actors: dict[str, torch.nn.Module]
+    loc: dict[str, torch.Tensor] | None
+    scale: dict[str, torch.Tensor] | None
+
+    def __call__(self, tensordict: TensorDictBase) -> dict[str, torch.Tensor]:
+        """Actions of every agent of every group (the caller keeps its own team's).
+
+        The input is not modified: observations are normalised in a copy.
+        """
+        actions: dict[str, torch.Tensor] = {}
+        for group, actor in self.actors.items():
+            inputs = tensordict.select((group, "observation")).clone(recurse=False)
+            observation = tensordict[group, "observation"]
+            if self.loc is not None and self.scale is not None:
+                observation = (observation - self.loc[group]) / self.scale[group]
+            inputs.set((group, "observation"), observation)
+            actions[group] = actor(inputs)[group, "action"]
+        return actions
+
+
+def restore_policy(state: Mapping[str, Any], env: EnvBase) -> RestoredPolicy:
+    """Rebuild the actors and frozen normaliser of a checkpoint for ``env``.
+
+    Args:
+        state: a loaded checkpoint (:func:`rlhc.checkpoint.load_checkpoint`).
+        env: the evaluation env (built by :func:`rlhc.envs.make_env`); its specs must
+            match the ones the policy was trained on.
+
+    Returns:
+        A callable ``tensordict -> {group: actions}`` in eval mode.
+
+    Raises:
+        ValueError: the checkpoint's observation sizes do not fit ``env``; the
+            message names the checkpoint and its env options.
+    """
+    cfg = checkpoint_config(state)
+    net = network_config(cfg)
+    actors: dict[str, torch.nn.Module] = {}
+    for group, weights in state["actors"].items():
+        actor = make_actor(env, group, net)
+        try:
+            actor.load_state_dict(weights)
+        except RuntimeError as error:
+            raise ValueError(
+                f"checkpoint {state.get('path', '?')!r} does not fit this env: it was trained "
+                f"on {state['env']!r} with options {observation_options(state)}; "
+                f"build the evaluation env with the same options ({error})"
+            ) from None
+        actors[group] = actor.eval()
+    loc = scale = None
+    if cfg.algo.normalize_observations:
+        training_env = make_training_env(cfg, num_envs=1, seed=0)
+        training_env.transform.load_state_dict(state["env_transform"])
+        normaliser = next(t for t in training_env.transform if isinstance(t, VecNormV2))
+        loc = {g: normaliser.loc[g, "observation"].clone() for g in actors}
+        scale = {g: normaliser.scale[g, "observation"].clone() for g in actors}
+        training_env.close()
+    return RestoredPolicy(actors, loc, scale)
