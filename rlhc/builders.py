@@ -7,6 +7,7 @@ exactly the networks that were trained.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import torch
@@ -99,7 +100,10 @@ def make_training_env(cfg: TrainConfig, num_envs: int, seed: int) -> Transformed
         keys = [(g, key) for g in groups for key in ("observation", "manager_observation")]
         # Statistics are shared by the worlds (reduce_batch_dims) and kept per agent slot;
         # with mirrored observations and a shared policy both teams' slots converge alike.
-        transforms.append(VecNormV2(in_keys=keys, decay=0.99999, reduce_batch_dims=True))
+        with warnings.catch_warnings():
+            # "experimental for batched containers": the batched path is the one we test.
+            warnings.filterwarnings("ignore", "Support of VecNormV2", UserWarning)
+            transforms.append(VecNormV2(in_keys=keys, decay=0.99999, reduce_batch_dims=True))
     return TransformedEnv(base, Compose(*transforms))
 
 

@@ -125,6 +125,8 @@ class Trainer:
             frames_per_batch=self.layout.frames_per_batch,
             total_frames=math.ceil(remaining / self.layout.frames_per_batch)
             * self.layout.frames_per_batch,
+            # The policy is stateless (no recurrent state to initialise).
+            auto_register_policy_transforms=False,
         )
         progress = tqdm(
             total=cfg.algo.max_steps,
