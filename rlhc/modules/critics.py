@@ -2,7 +2,7 @@
 
 Both are the same shared-weights MLP over a group's agents; they differ only in what
 they read (the worker's local observation, or the broader view the team manager has
-of that agent) and where they write (paper, Sec. 3: the manager criticises, it does
+of that agent) and where they write (in RLHC the manager criticises, it does
 not act).
 """
 

@@ -4,7 +4,7 @@ Reinforcement Learning from Hierarchical Critics (Cao & Lin, arXiv 1902.03079)
 trains every worker with PPO, but replaces the state value inside GAE by a *fused*
 value built from two critics, per agent and per step:
 
-    V_hat(s_t) = max(V_w(o_w,t), V_m(o_m,t))                    (paper, Eq. 6)
+    V_hat(s_t) = max(V_w(o_w,t), V_m(o_m,t))
 
 where ``V_w`` is the worker's critic on its local observation and ``V_m`` the team
 manager's critic on a broader one. ``V_hat`` is used both at ``t`` and at the

@@ -178,6 +178,19 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         td_out.set(EXPLAINED_VARIANCE, terms.explained_variance)
         return td_out
 
+    def loss_critic(self, tensordict: TensorDictBase) -> tuple[Tensor, None, Tensor]:
+        """ClipPPOLoss's critic hook, for callers that use it directly.
+
+        Args:
+            tensordict: data holding the value target.
+
+        Returns:
+            ``(loss, None, explained_variance)``: the unreduced sum of both critic
+            terms, no value-clip fraction, and the explained variance of ``V_hat``.
+        """
+        terms = self._critic_terms(tensordict)
+        return terms.worker + terms.manager, None, terms.explained_variance
+
     def _critic_terms(self, tensordict: TensorDictBase) -> _CriticTerms:
         tk = self.tensor_keys
         target = tensordict.get(tk.value_target, None)

@@ -16,6 +16,7 @@ from torchrl.objectives.value.advantages import (
 )
 
 from rlhc.modules import keys
+from rlhc.objectives._data import as_tuple, broadcast_to_value, require
 from rlhc.objectives.functional import (
     check_fusion,
     check_manager_interval,
@@ -28,7 +29,7 @@ from rlhc.objectives.functional import (
 class HierarchicalValueEstimator(ValueEstimatorBase):
     """Generalized advantage estimation on the fused value of a worker and a manager critic.
 
-    RLHC (Cao & Lin, arXiv 1902.03079, Eq. 6) computes the PPO advantage of every
+    RLHC (Cao & Lin, arXiv 1902.03079) computes the PPO advantage of every
     worker from ``V_hat = max(V_w(o_w), V_m(o_m))``, element-wise per agent and per
     step, used at ``t`` and at the bootstrap ``t + 1``. This estimator calls both
     critics on the root and ``"next"`` observations, fuses them with
@@ -203,13 +204,13 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
         observed = [*self.worker_value_network.in_keys, *self.manager_value_network.in_keys]
         in_keys = [
             *observed,
-            *(("next", *_as_tuple(key)) for key in observed),
-            ("next", *_as_tuple(tk.reward)),
-            ("next", *_as_tuple(tk.done)),
-            ("next", *_as_tuple(tk.terminated)),
+            *(("next", *as_tuple(key)) for key in observed),
+            ("next", *as_tuple(tk.reward)),
+            ("next", *as_tuple(tk.done)),
+            ("next", *as_tuple(tk.terminated)),
         ]
         if self.manager_interval > 1:
-            in_keys += [tk.step_count, ("next", *_as_tuple(tk.step_count))]
+            in_keys += [tk.step_count, ("next", *as_tuple(tk.step_count))]
         return in_keys
 
     @property
@@ -264,35 +265,23 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
             )
         tk = self.tensor_keys
         time_dim = self._get_time_dim(time_dim, tensordict)
-        next_td = _require(tensordict, "next", "the step's next-state data")
+        next_td = require(tensordict, "next", "the step's next-state data")
         worker_value, manager_value = self._critic_values(tensordict, grad=True)
         next_worker_value, next_manager_value = self._critic_values(
             next_td, grad=False, under=("next",)
         )
 
-        reward = _require(next_td, tk.reward, "the reward of step t", under=("next",))
-        done = _require(next_td, tk.done, "did the episode end after step t", under=("next",))
-        terminated = _require(
-            next_td, tk.terminated, "did it end without a future", under=("next",)
-        )
+        reward = require(next_td, tk.reward, "the reward of step t", under=("next",))
+        done = require(next_td, tk.done, "did the episode end after step t", under=("next",))
+        terminated = require(next_td, tk.terminated, "did it end without a future", under=("next",))
         reward, done, terminated = (
-            _broadcast_to_value(signal, worker_value, tensordict.batch_dims, name)
+            broadcast_to_value(signal, worker_value, tensordict.batch_dims, name)
             for signal, name in ((reward, "reward"), (done, "done"), (terminated, "terminated"))
         )
-        consulted = next_consulted = None
-        if self.manager_interval > 1:
-            consulted, next_consulted = (
-                manager_consulted_mask(
-                    _broadcast_to_value(
-                        _require(data, tk.step_count, "the episode step counter", under=under),
-                        worker_value,
-                        tensordict.batch_dims,
-                        "step_count",
-                    ),
-                    self.manager_interval,
-                )
-                for data, under in ((tensordict, ()), (next_td, ("next",)))
-            )
+        consulted = self._manager_consulted(tensordict, worker_value, tensordict.batch_dims)
+        next_consulted = self._manager_consulted(
+            next_td, worker_value, tensordict.batch_dims, under=("next",)
+        )
         gamma = self.gamma.to(reward.device)
         lmbda = self.lmbda.to(reward.device)
         estimate = hierarchical_gae(
@@ -332,13 +321,7 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
         Returns:
             ``(fused_value, manager_share)``, as :func:`~rlhc.objectives.functional.fuse_values`.
         """
-        consulted = None
-        if self.manager_interval > 1:
-            step_count = _require(tensordict, self.tensor_keys.step_count, "the step counter")
-            consulted = manager_consulted_mask(
-                _broadcast_to_value(step_count, worker_value, tensordict.batch_dims, "step_count"),
-                self.manager_interval,
-            )
+        consulted = self._manager_consulted(tensordict, worker_value, tensordict.batch_dims)
         return fuse_values(
             worker_value,
             manager_value,
@@ -357,6 +340,20 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
         """The lambda-return on ``V_hat`` (the critics' regression target)."""
         return self.forward(tensordict.copy()).get(self.tensor_keys.value_target)
 
+    def _manager_consulted(
+        self, data: TensorDictBase, value: Tensor, batch_dims: int, under: tuple[str, ...] = ()
+    ) -> Tensor | None:
+        # Temporal scaling: the manager speaks at steps 0, k, 2k, ... of each episode.
+        if self.manager_interval == 1:
+            return None
+        step_count = require(
+            data, self.tensor_keys.step_count, "the episode step counter", under=under
+        )
+        return manager_consulted_mask(
+            broadcast_to_value(step_count, value, batch_dims, "step_count"),
+            self.manager_interval,
+        )
+
     def _critic_values(
         self, data: TensorDictBase, *, grad: bool, under: tuple[str, ...] = ()
     ) -> tuple[Tensor, Tensor]:
@@ -367,7 +364,7 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
             (self.manager_value_network, tk.manager_value),
         ):
             for in_key in network.in_keys:
-                _require(data, in_key, f"an input of the critic writing {key!r}", under=under)
+                require(data, in_key, f"an input of the critic writing {key!r}", under=under)
             # The bootstrap V_hat(s_{t+1}) never carries gradient (as in TorchRL's GAE).
             with torch.set_grad_enabled(grad and torch.is_grad_enabled()):
                 value = network(data).get(key, None)
@@ -390,32 +387,3 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
             f"fusion={self.fusion!r}, weight={self.weight}, "
             f"manager_interval={self.manager_interval}, group={self.group!r}"
         )
-
-
-def _as_tuple(key: NestedKey) -> tuple[str, ...]:
-    return (key,) if isinstance(key, str) else tuple(key)
-
-
-def _require(
-    data: TensorDictBase, key: NestedKey, meaning: str, *, under: tuple[str, ...] = ()
-) -> Tensor:
-    value = data.get(key, None)
-    if value is None:
-        full_key = (*under, *_as_tuple(key)) if under else key
-        present = sorted(map(str, data.keys(include_nested=True, leaves_only=True)))
-        raise KeyError(f"missing key {full_key!r} ({meaning}); present: {present}")
-    return value
-
-
-def _broadcast_to_value(signal: Tensor, value: Tensor, batch_dims: int, name: str) -> Tensor:
-    # Signals shared by the agents ([*B, T, 1], e.g. the root step_count) gain the
-    # agent dims right after the batch dims; per-agent ones ([*B, T, n_g, 1]) pass.
-    while signal.ndim < value.ndim:
-        signal = signal.unsqueeze(batch_dims)
-    try:
-        return signal.expand(value.shape)
-    except RuntimeError:
-        raise ValueError(
-            f"{name} of shape {tuple(signal.shape)} does not broadcast to the values' "
-            f"shape {tuple(value.shape)}"
-        ) from None

@@ -68,6 +68,10 @@ def test_critic_loss_is_the_sum_of_both_terms(networks: Callable) -> None:
     fused = torch.maximum(worker, manager)
     explained = 1 - (target - fused).var(correction=0) / target.var(correction=0)
     assert_close(out["explained_variance"], explained)
+    # ClipPPOLoss's own hook gives the same (unreduced) sum.
+    unreduced, _, hook_explained = loss.loss_critic(data)
+    assert_close(unreduced.mean(), out["loss_critic"])
+    assert_close(hook_explained, explained)
 
 
 def test_only_the_loss_terms_carry_gradient(networks: Callable) -> None:

@@ -1,0 +1,55 @@
+"""Reading collected data with errors that name what is missing or misshapen."""
+
+from __future__ import annotations
+
+from tensordict import TensorDictBase
+from tensordict.utils import NestedKey
+from torch import Tensor
+
+
+def as_tuple(key: NestedKey) -> tuple[str, ...]:
+    """``"a"`` -> ``("a",)``; ``("a", "b")`` -> ``("a", "b")``."""
+    return (key,) if isinstance(key, str) else tuple(key)
+
+
+def require(
+    data: TensorDictBase, key: NestedKey, meaning: str, *, under: tuple[str, ...] = ()
+) -> Tensor:
+    """``data[key]``, or a ``KeyError`` naming the key, what it is and what is present.
+
+    Args:
+        data: the (sub-)TensorDict to read.
+        key: the key to read.
+        meaning: what the entry is, for the message.
+        under: where ``data`` sits in the caller's TensorDict (e.g. ``("next",)``),
+            so that the message names the full key.
+
+    Returns:
+        The entry.
+    """
+    value = data.get(key, None)
+    if value is None:
+        full_key = (*under, *as_tuple(key)) if under else key
+        present = sorted(map(str, data.keys(include_nested=True, leaves_only=True)))
+        raise KeyError(f"missing key {full_key!r} ({meaning}); present: {present}")
+    return value
+
+
+def broadcast_to_value(signal: Tensor, value: Tensor, batch_dims: int, name: str) -> Tensor:
+    """Expand a per-step signal to the per-agent value shape ``[*B, T, n_g, 1]``.
+
+    Signals shared by the agents (``[*B, T, 1]``, e.g. the root ``step_count`` or a
+    team reward) gain the agent dims right after the batch dims; per-agent ones pass.
+
+    Raises:
+        ValueError: the signal does not broadcast (the message names it).
+    """
+    while signal.ndim < value.ndim:
+        signal = signal.unsqueeze(batch_dims)
+    try:
+        return signal.expand(value.shape)
+    except RuntimeError:
+        raise ValueError(
+            f"{name} of shape {tuple(signal.shape)} does not broadcast to the values' "
+            f"shape {tuple(value.shape)}"
+        ) from None
