@@ -79,7 +79,8 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
     ``worker_value``, ``manager_value``, ``value`` (the fused ``V_hat``,
     ``"state_value"``), ``advantage``, ``value_target`` and ``manager_selected``
     (the share of ``V_hat`` taken from the manager critic: in ``"max"`` mode 1 where
-    the manager's critic wins, so its mean is the share of steps it wins).
+    the manager's critic wins, so its mean is the share of steps it wins). The
+    critics' values of the next observations are left under ``"next"`` too.
 
     Examples:
         >>> import torch

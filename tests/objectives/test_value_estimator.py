@@ -261,6 +261,16 @@ def test_in_and_out_keys(networks: Callable) -> None:
     }
 
 
+def test_value_estimate_leaves_the_data_untouched(networks: Callable) -> None:
+    _, worker, manager = networks()
+    data = make_batch()
+    before = set(data.keys(True, True))
+    target = estimator(worker, manager).value_estimate(data)
+    assert set(data.keys(True, True)) == before
+    estimator(worker, manager)(data)
+    assert_close(target, data[GROUP, "value_target"])
+
+
 def test_estimates_carry_no_gradient(networks: Callable) -> None:
     _, worker, manager = networks()
     data = estimator(worker, manager)(make_batch())
