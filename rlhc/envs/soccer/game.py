@@ -132,6 +132,45 @@ class SoccerGame(BatchedGame):
         self.step_count[mask] = 0
         self._observations = None
 
+    def place(
+        self, positions: np.ndarray, angles: np.ndarray, mask: np.ndarray | None = None
+    ) -> None:
+        """Put the bodies of the pitches in ``mask`` (all if ``None``) at rest at given spots.
+
+        For tests, demos and hand-made situations; ``step_count`` is left alone.
+
+        Args:
+            positions: ``[N, 5, 2]`` pitch-local positions, body order (``striker_0``,
+                ``striker_1``, ``goalie_0``, ``goalie_1``, ball).
+            angles: ``[N, 5]`` facing angles (a goalie's should stay 0 for team 0, π for
+                team 1: goalies cannot turn).
+            mask: ``bool [N]``.
+
+        Raises:
+            ValueError: wrong shapes, non-finite values, or a player outside the pitch.
+        """
+        positions, angles = (
+            np.asarray(positions, dtype=np.float64),
+            np.asarray(angles, dtype=np.float64),
+        )
+        if positions.shape != (self.num_worlds, 5, 2) or angles.shape != (self.num_worlds, 5):
+            raise ValueError(
+                f"place expects positions [{self.num_worlds}, 5, 2] and angles [{self.num_worlds}, 5], "
+                f"got {positions.shape} and {angles.shape}"
+            )
+        if not (np.all(np.isfinite(positions)) and np.all(np.isfinite(angles))):
+            raise ValueError("place: positions and angles must be finite")
+        mask = (
+            np.ones(self.num_worlds, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
+        )
+        inside = self.geometry.contains(positions[mask][:, :NUM_PLAYERS]) & (
+            np.abs(positions[mask][:, :NUM_PLAYERS, 0]) < self.geometry.half_length
+        )
+        if not np.all(inside):
+            raise ValueError("place: players must be on the pitch (not in a net or a wall)")
+        self.physics.teleport(mask, positions, angles)
+        self._observations = None
+
     def step(self, actions: Mapping[str, np.ndarray]) -> StepOutcome:
         """Advance every pitch one step; see the module docstring for the rules.
 
@@ -174,9 +213,9 @@ class SoccerGame(BatchedGame):
             worker, manager = self.sensors.observe(self.physics.positions, self.physics.angles)
             self._observations = {
                 role: GroupObservation(
-                    observation=worker[:, bodies], manager_observation=manager[:, bodies]
+                    observation=worker[index], manager_observation=manager[index]
                 )
-                for role, bodies in ROLE_BODIES.items()
+                for index, role in enumerate(ROLE_BODIES)
             }
         return self._observations
 

@@ -54,19 +54,43 @@ MANAGER_SIZE = MANAGER_RAYS * MANAGER_FEATURES  # 200, paper Table 2
 #: (ball, teammate, opponent striker, opponent goalie).
 VISIBLE_BODIES = np.array([[BALL, 2, 1, 3], [BALL, 3, 0, 2], [BALL, 0, 1, 3], [BALL, 1, 0, 2]])
 _CIRCLE_TYPES = [0, 4, 5, 6]
+_NUM_TARGETS = len(_CIRCLE_TYPES) + 3  # circle slots, then wall, left mouth, right mouth
 
-# type_of_target[player, target]: what a ray target (circle slot, wall, left mouth,
-# right mouth) is to that player. Team 0 defends the left goal (x < 0).
+# type_of_target[player, target]: what a ray target is to that player. Team 0 defends
+# the left goal (x < 0).
 _TYPE_OF_TARGET = np.array(
     [[*_CIRCLE_TYPES, 3, 1, 2] if team == 0 else [*_CIRCLE_TYPES, 3, 2, 1] for team in PLAYER_TEAM],
     dtype=np.int64,
 )
-assert _TYPE_OF_TARGET.shape[1] == len(_CIRCLE_TYPES) + 1 + max(WALL, GOAL_LEFT, GOAL_RIGHT)
+assert (
+    _TYPE_OF_TARGET.shape[1]
+    == _NUM_TARGETS
+    == len(_CIRCLE_TYPES) + 1 + max(WALL, GOAL_LEFT, GOAL_RIGHT)
+)
+_PLAYER_ROW = (np.arange(4) * _NUM_TARGETS).astype(np.int16)
+_TEAM_SIGN = np.where(PLAYER_TEAM == 0, 1.0, -1.0).astype(np.float32)  # x * sign < 0: own half
 
-# Row t is the one-hot of type t; the last row (nothing hit) is all zeros.
-_ONE_HOT = np.vstack([np.eye(NUM_TYPES), np.zeros((1, NUM_TYPES))]).astype(np.float32)
-# +1 for team 0, -1 for team 1: ``x * sign < 0`` is the player's own half.
-_TEAM_SIGN = np.where(PLAYER_TEAM == 0, 1.0, -1.0).astype(np.float32)
+
+def _feature_tables() -> tuple[np.ndarray, np.ndarray]:
+    """Every ray's features but its distance, looked up in one gather.
+
+    Worker row ``(player * T + target) * 2 + hit`` holds the one-hot type (zeros when
+    nothing is hit) and a 0 where the distance goes; manager row ``row_w * 2 + own_half``
+    holds one-hot type, own half, hit flag, 0.
+    """
+    worker = np.zeros((4, _NUM_TARGETS, 2, WORKER_FEATURES), dtype=np.float32)
+    manager = np.zeros((4, _NUM_TARGETS, 2, 2, MANAGER_FEATURES), dtype=np.float32)
+    for player in range(4):
+        for target in range(_NUM_TARGETS):
+            kind = _TYPE_OF_TARGET[player, target]
+            worker[player, target, 1, kind] = 1.0
+            manager[player, target, 1, :, kind] = 1.0
+            manager[player, target, 1, 1, NUM_TYPES] = 1.0  # own half (only when hit)
+            manager[player, target, 1, :, NUM_TYPES + 1] = 1.0  # hit flag
+    return worker.reshape(-1, WORKER_FEATURES), manager.reshape(-1, MANAGER_FEATURES)
+
+
+_WORKER_TABLE, _MANAGER_TABLE = _feature_tables()
 
 
 @dataclass(frozen=True)
@@ -89,14 +113,14 @@ class RaySensors:
 
     @property
     def worker_fan(self) -> RayFan:
-        return RayFan.spread(WORKER_RAYS, 180.0, self.worker_ray_length)
+        return RayFan(WORKER_RAYS, 180.0, self.worker_ray_length)
 
     @property
     def manager_fan(self) -> RayFan:
-        return RayFan.spread(MANAGER_RAYS, 270.0, self.manager_ray_length)
+        return RayFan(MANAGER_RAYS, 270.0, self.manager_ray_length)
 
     def cast(self, positions: np.ndarray, angles: np.ndarray) -> RayHits:
-        """All 34 rays of the 4 players, ``RayHits`` of shape ``[N, 4, 34]``.
+        """All 34 rays of the 4 players (worker rays first), ``[34, N, 4]`` ray-major.
 
         Args:
             positions: ``[N, 5, 2]`` body positions (players, then the ball).
@@ -109,49 +133,53 @@ class RaySensors:
             facings=angles[:, :4],
             circle_centres=positions[:, VISIBLE_BODIES],
             circle_radii=radii,
-            ray_angles=np.concatenate([self.worker_fan.angles, self.manager_fan.angles]),
+            fans=(self.worker_fan, self.manager_fan),
             geometry=self.geometry,
         )
 
     def observe(self, positions: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Worker and manager observations of the 4 players.
+        """Worker and manager observations of the 4 players, role-major.
 
         Args:
             positions: ``[N, 5, 2]`` body positions (players, then the ball).
             angles: ``[N, 5]`` body angles.
 
         Returns:
-            ``float32 [N, 4, 112]`` worker and ``float32 [N, 4, 200]`` manager
-            observations, players in body order.
+            ``float32 [2, N, 2, 112]`` worker and ``float32 [2, N, 2, 200]`` manager
+            observations, indexed ``[role (striker, goalie), world, team]``: each
+            group's block is contiguous, ready for the TensorDict without a copy.
         """
         hits = self.cast(positions, angles)
         num_worlds = positions.shape[0]
-        types = _TYPE_OF_TARGET[np.arange(4)[:, None], hits.target]  # [N, 4, 34]
-        worker = _encode(hits, types, slice(0, WORKER_RAYS), self.worker_ray_length, manager=False)
-        manager = _encode(
-            hits, types, slice(WORKER_RAYS, None), self.manager_ray_length, manager=True
+        lengths = np.repeat(
+            np.array([self.worker_ray_length, self.manager_ray_length], dtype=np.float32),
+            [WORKER_RAYS, MANAGER_RAYS],
+        )[:, None, None]
+        hit = hits.distance <= lengths  # [R, N, 4]
+        rows = hits.target.astype(np.int16)
+        rows += _PLAYER_ROW
+        rows *= 2
+        rows += hit.view(np.int8)
+        # Unity's convention: a ray that meets nothing reports distance 1.
+        distance = np.minimum(hits.distance / lengths, np.float32(1.0))
+        in_own_half = hits.hit_x[WORKER_RAYS:] * _TEAM_SIGN < 0
+        manager_rows = rows[WORKER_RAYS:] * 2
+        manager_rows += in_own_half.view(np.int8)
+        worker = _gather(_WORKER_TABLE, rows[:WORKER_RAYS], distance[:WORKER_RAYS])
+        manager = _gather(_MANAGER_TABLE, manager_rows, distance[WORKER_RAYS:])
+        return worker.reshape(2, num_worlds, 2, WORKER_SIZE), manager.reshape(
+            2, num_worlds, 2, MANAGER_SIZE
         )
-        in_own_half = hits.hit_x[..., WORKER_RAYS:] * _TEAM_SIGN[:, None] < 0
-        manager[..., NUM_TYPES] = manager[..., NUM_TYPES + 1] * in_own_half  # hit flag x own half
-        return worker.reshape(num_worlds, 4, WORKER_SIZE), manager.reshape(
-            num_worlds, 4, MANAGER_SIZE
-        )
 
 
-def _encode(
-    hits: RayHits, types: np.ndarray, rays: slice, length: float, manager: bool
-) -> np.ndarray:
-    """``[N, 4, R, F]``: one-hot types, (manager: own-half slot left 0, hit flag,) distance.
+def _role_major(ray_major: np.ndarray) -> np.ndarray:
+    """``[R, N, 4] -> [2 roles, N, 2 teams, R]`` (a view; players are role * 2 + team)."""
+    rays, num_worlds = ray_major.shape[:2]
+    return ray_major.reshape(rays, num_worlds, 2, 2).transpose(2, 1, 3, 0)
 
-    Worker rays get ``F = 8`` (the paper's 7 types + distance); manager rays ``F = 10``.
-    """
-    distance = hits.distance[..., rays]
-    hit = distance <= np.float32(length)
-    label = np.where(hit, types[..., rays], _NOTHING)
-    features = MANAGER_FEATURES if manager else WORKER_FEATURES
-    out = np.zeros((*distance.shape, features), dtype=np.float32)
-    out[..., :NUM_TYPES] = _ONE_HOT[label]
-    if manager:
-        out[..., NUM_TYPES + 1] = hit
-    out[..., -1] = np.where(hit, distance / np.float32(length), np.float32(1.0))
+
+def _gather(table: np.ndarray, rows: np.ndarray, distance: np.ndarray) -> np.ndarray:
+    """``[2, N, 2, R, F]``: the table rows of every ray, distance in the last column."""
+    out = np.take(table, _role_major(rows), axis=0)
+    out[..., -1] = _role_major(distance)
     return out

@@ -149,6 +149,7 @@ class SoccerPhysics:
         #: shape -> (world, tag); tags: "wall", "goal_<team that defends it>",
         #: "player_<body index>", "ball". Used by tests and the ray-cast cross-check.
         self.shape_tags: dict[pymunk.Shape, tuple[int, str]] = {}
+        self.bodies: list[list[pymunk.Body]] = []  # [world][body index]
         self._build()
         self._rows = self._count_rows()
         self._io = np.zeros((self._rows, 6))
@@ -191,6 +192,7 @@ class SoccerPhysics:
                 mouth.filter = pymunk.ShapeFilter(categories=_MOUTH, mask=_PLAYER)
                 self.space.add(mouth)
                 self.shape_tags[mouth] = (world, f"goal_{team}")
+            self.bodies.append([])
             for index in range(BODIES_PER_WORLD):
                 is_ball = index == BALL
                 mass = 0.45 if is_ball else 2.0
@@ -203,8 +205,11 @@ class SoccerPhysics:
                 circle.elasticity = 0.7 if is_ball else 0.2
                 circle.friction = 0.05 if is_ball else 0.3
                 category = _BALL if is_ball else _PLAYER
-                circle.filter = pymunk.ShapeFilter(categories=category, mask=_ALL)
+                # A group of its own: a query from the body's centre can skip the body.
+                group = 1 + world * BODIES_PER_WORLD + index
+                circle.filter = pymunk.ShapeFilter(group=group, categories=category, mask=_ALL)
                 self.space.add(body, circle)
+                self.bodies[world].append(body)
                 self.shape_tags[circle] = (world, "ball" if is_ball else f"player_{index}")
 
     def _count_rows(self) -> int:
@@ -263,6 +268,11 @@ class SoccerPhysics:
         bodies[mask, :, 3:5] = 0.0
         self._write_buffer.set_float_buf(rows.reshape(-1))
         pymunk.batch.set_space_bodies(self.space, _FIELDS, self._write_buffer)
+        # pymunk refreshes shape positions only when stepping; do it now for the moved
+        # bodies so that queries (segment_query_first, …) see the new scene at once.
+        for world in np.flatnonzero(mask):
+            for body in self.bodies[world]:
+                self.space.reindex_shapes_for_body(body)
         self.read()
 
     def step(self) -> None:

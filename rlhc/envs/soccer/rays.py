@@ -1,26 +1,31 @@
 """Ray casts for every ray of every agent of every pitch at once, in numpy.
 
-A Unity-style ray sensor, vectorised: each agent casts a fan of rays from its centre;
+A Unity-style ray sensor, vectorised: each agent casts fans of rays from its centre;
 a ray stops at the first thing it meets. Two kinds of targets exist on a pitch:
 
-* circles (the ball and the other three players): the classic ray–circle quadratic,
-  solved in the agent's own frame so that the ray directions are constants;
 * the pitch boundary: the walls' inner faces form the rectangle
   ``|x| <= half_length, |y| <= half_width`` and the goal mouths are the parts of the
   goal lines with ``|y| <= goal_half_width``. Agents never leave the rectangle
-  (players cannot enter the nets), so a ray always leaves it through exactly one side:
-  the slab method gives the exit distance in a handful of array operations, and the
-  exit point says whether it is a wall or a mouth. The nets behind the mouths are
-  never seen: a mouth is opaque to rays (as the goal object is in Unity), though not
-  to the ball.
+  (players cannot enter the nets), so every ray leaves it through exactly one side:
+  the slab method gives the exit distance in a handful of array operations per ray,
+  and the exit point says whether it is a wall or a mouth. The nets behind the mouths
+  are never seen: a mouth is opaque to rays (as the goal object is in Unity), though
+  not to the ball.
+* circles (the ball and the other three players): most rays miss most circles, so
+  they are handled sparsely. A circle at bearing ``β`` and distance ``d`` covers the
+  directions ``|α - β| <= asin(r / d)``; with evenly spaced fans that is a range of
+  ray indices, computed per (agent, circle) pair. Only those rays solve the ray–circle
+  quadratic, and ``np.minimum.at`` keeps the nearest hit of each ray.
 
-The result agrees with pymunk's ``Space.segment_query_first`` on the physics space
-(tests check it on random scenes) at a fraction of the cost: one Python call per
-pitch-step instead of one per ray.
+So the cost is a few dense operations per ray plus work proportional to the number of
+(agent, circle) pairs and actual hits. The result agrees with pymunk's
+``Space.segment_query_first`` on the physics space (a test checks it on random scenes);
+pymunk needs one Python call per ray.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,46 +35,58 @@ from rlhc.envs.soccer.physics import PitchGeometry
 #: target codes after the circle slots: ``num_circles + WALL`` etc.
 WALL, GOAL_LEFT, GOAL_RIGHT = 0, 1, 2
 
-# Guards a division by a direction component that is exactly zero (the ray is parallel
-# to that pair of walls: its exit distance through them must come out huge, not NaN).
-_TINY = np.float32(1e-12)
+_WRAPS = np.array([-2 * np.pi, 0.0, 2 * np.pi])  # a circle's arc may straddle ±180°
 
 
 @dataclass(frozen=True)
 class RayFan:
-    """A fan of rays around an agent's facing.
+    """``count`` rays evenly spaced over ``degrees``, centred on the agent's facing.
 
     Attributes:
-        angles: ``float32 [R]`` ray directions relative to the facing, radians,
-            increasing counter-clockwise (from the agent's right to its left).
+        count: number of rays (>= 2).
+        degrees: the angle between the first and the last ray.
         length: the range of every ray.
     """
 
-    angles: np.ndarray
+    count: int
+    degrees: float
     length: float
 
-    @classmethod
-    def spread(cls, count: int, degrees: float, length: float) -> RayFan:
-        """``count`` rays evenly spaced over ``degrees``, centred on the facing.
+    def __post_init__(self) -> None:
+        if self.count < 2 or not 0 < self.degrees < 360 or self.length <= 0:
+            raise ValueError(f"bad ray fan {self}")
+
+    @property
+    def first(self) -> float:
+        """Direction of the first (rightmost) ray relative to the facing, radians."""
+        return -np.deg2rad(self.degrees) / 2
+
+    @property
+    def spacing(self) -> float:
+        """Angle between neighbouring rays, radians."""
+        return float(np.deg2rad(self.degrees) / (self.count - 1))
+
+    @property
+    def angles(self) -> np.ndarray:
+        """``float64 [count]`` ray directions relative to the facing, right to left.
 
         Examples:
-            >>> [round(float(angle), 4) for angle in RayFan.spread(3, 180.0, 5.0).angles]
+            >>> RayFan(3, 180.0, 5.0).angles.round(4).tolist()
             [-1.5708, 0.0, 1.5708]
         """
-        half = np.deg2rad(degrees) / 2
-        return cls(np.linspace(-half, half, count, dtype=np.float32), float(length))
+        return self.first + self.spacing * np.arange(self.count)
 
 
 @dataclass
 class RayHits:
-    """What each ray met first.
+    """What each ray met first, ray-major (``[R, N, A]``: the fast layout for the maths).
 
     Attributes:
-        distance: ``float32 [N, A, R]`` distance from the agent's centre to the hit
+        distance: ``float32 [R, N, A]`` distance from the agent's centre to the hit
             (rays are not clipped to a range here: every ray meets the boundary).
-        target: ``int64 [N, A, R]``: ``c < C`` for circle slot ``c``, else
+        target: ``int8 [R, N, A]``: ``c < C`` for circle slot ``c``, else
             ``C + WALL``, ``C + GOAL_LEFT`` (the mouth at ``-x``) or ``C + GOAL_RIGHT``.
-        hit_x: ``float32 [N, A, R]`` pitch-local ``x`` of the hit point.
+        hit_x: ``float32 [R, N, A]`` pitch-local ``x`` of the hit point.
     """
 
     distance: np.ndarray
@@ -82,72 +99,125 @@ def cast_rays(
     facings: np.ndarray,
     circle_centres: np.ndarray,
     circle_radii: np.ndarray,
-    ray_angles: np.ndarray,
+    fans: Sequence[RayFan],
     geometry: PitchGeometry,
 ) -> RayHits:
-    """Cast ``R`` rays from each of ``A`` agents in ``N`` pitches.
+    """Cast the rays of ``fans`` (concatenated, ``R`` in all) from ``A`` agents in ``N`` pitches.
 
     Args:
         origins: ``[N, A, 2]`` agent centres, pitch-local; inside the pitch rectangle.
         facings: ``[N, A]`` agent facing angles.
         circle_centres: ``[N, A, C, 2]`` the circles agent ``a`` can see (not itself).
-        circle_radii: ``[C]`` or ``[A, C]`` their radii.
-        ray_angles: ``[R]`` ray directions relative to the facing.
+        circle_radii: ``[C]`` their radii.
+        fans: the ray fans; ray ``r`` of the result is fan by fan, right to left.
         geometry: the pitch boundary.
 
     Returns:
-        The first hit of every ray. A circle that contains the ray's origin is not hit
-        (as in pymunk: an overlapping body is not "seen" from inside).
+        The first hit of every ray, ``[R, N, A]``. A circle that contains the ray's
+        origin (an overlapping body) is hit by every ray at distance 0, as in pymunk.
 
     Examples:
         >>> geometry = PitchGeometry(8.0, 5.0, 1.5, 1.0)
         >>> hits = cast_rays(
         ...     np.zeros((1, 1, 2)), np.zeros((1, 1)), np.array([[[[3.0, 0.0]]]]),
-        ...     np.array([0.5]), np.array([0.0, np.pi / 2]), geometry,
+        ...     np.array([0.5]), [RayFan(3, 180.0, 10.0)], geometry,
         ... )
-        >>> hits.distance.round(3).tolist(), hits.target.tolist()
-        ([[[2.5, 5.0]]], [[[0, 1]]])
+        >>> hits.distance.ravel().round(3).tolist(), hits.target.ravel().tolist()
+        ([5.0, 2.5, 5.0], [1, 0, 1])
     """
     f32 = np.float32
-    origins = origins.astype(f32, copy=False)
-    cos_f = np.cos(facings).astype(f32)[..., None]  # [N, A, 1]
-    sin_f = np.sin(facings).astype(f32)[..., None]
-    cos_r = np.cos(ray_angles).astype(f32)  # [R]
-    sin_r = np.sin(ray_angles).astype(f32)
+    num_worlds, num_agents = facings.shape
     num_circles = circle_centres.shape[2]
+    ray_angles = np.concatenate([fan.angles for fan in fans])
 
-    # Circles, in the agent's frame: the ray is (cos_r, sin_r) t, the circle centre is
-    # (forward, left); solve |t d - c| = r for the smaller root t >= 0.
-    relative = circle_centres.astype(f32, copy=False) - origins[:, :, None, :]
-    forward = relative[..., 0] * cos_f + relative[..., 1] * sin_f  # [N, A, C]
-    left = relative[..., 1] * cos_f - relative[..., 0] * sin_f
-    radii = np.asarray(circle_radii, dtype=f32)
-    offset = forward * forward + left * left - radii * radii  # |c|^2 - r^2, [N, A, C]
-    along = forward[..., None] * cos_r + left[..., None] * sin_r  # [N, A, C, R]
-    discriminant = along * along - offset[..., None]
-    circle_t = along - np.sqrt(np.maximum(discriminant, f32(0.0)))
-    circle_t[(discriminant < 0) | (circle_t < 0)] = np.inf
-    nearest_circle = circle_t.argmin(axis=2)  # [N, A, R]
-    nearest_circle_t = np.take_along_axis(circle_t, nearest_circle[:, :, None, :], axis=2)[:, :, 0]
-
-    # Pitch boundary, world-aligned: direction = facing rotated by the ray angle.
-    dx = cos_f * cos_r - sin_f * sin_r  # [N, A, R]
+    # Boundary, dense and ray-major ([R, N, A]: numpy broadcasting is slow when the
+    # innermost axis is short, and R = 34 is short). Through each pair of parallel walls
+    # the exit distance is the larger of the two signed distances (the origin lies
+    # between them); a zero direction component gives +inf, as it should.
+    origins32 = origins.astype(f32)
+    ox, oy = origins32[..., 0], origins32[..., 1]
+    cos_f, sin_f = np.cos(facings).astype(f32), np.sin(facings).astype(f32)
+    cos_r = np.cos(ray_angles).astype(f32)[:, None, None]
+    sin_r = np.sin(ray_angles).astype(f32)[:, None, None]
+    dx = cos_f * cos_r - sin_f * sin_r
     dy = sin_f * cos_r + cos_f * sin_r
-    ox, oy = origins[..., 0:1], origins[..., 1:2]
-    sign_x = np.where(dx >= 0, f32(1.0), f32(-1.0))
-    sign_y = np.where(dy >= 0, f32(1.0), f32(-1.0))
-    exit_x = np.maximum(f32(geometry.half_length) - sign_x * ox, 0) / np.maximum(np.abs(dx), _TINY)
-    exit_y = np.maximum(f32(geometry.half_width) - sign_y * oy, 0) / np.maximum(np.abs(dy), _TINY)
-    through_end = exit_x < exit_y
-    boundary_t = np.where(through_end, exit_x, exit_y)
-    mouth = through_end & (np.abs(oy + boundary_t * dy) <= f32(geometry.goal_half_width))
-    boundary_target = np.where(
-        mouth,
-        np.where(dx > 0, num_circles + GOAL_RIGHT, num_circles + GOAL_LEFT),
-        num_circles + WALL,
-    )
+    a, b = f32(geometry.half_length), f32(geometry.half_width)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inverse_x, inverse_y = 1 / dx, 1 / dy
+    exit_x = np.maximum((a - ox) * inverse_x, (-a - ox) * inverse_x)
+    exit_y = np.maximum((b - oy) * inverse_y, (-b - oy) * inverse_y)
+    distance = np.minimum(exit_x, exit_y)
+    hit_y = distance * dy
+    hit_y += oy
+    # Bool views as int8 keep the target arithmetic cheap (no casts, no np.where).
+    mouth = (np.abs(hit_y) <= f32(geometry.goal_half_width)) & (exit_x < exit_y)
+    goal_minus_wall = (dx > 0).view(np.int8) + np.int8(GOAL_LEFT - WALL)
+    target = mouth.view(np.int8) * goal_minus_wall
+    target += np.int8(num_circles + WALL)
 
-    circle_first = nearest_circle_t < boundary_t
-    distance = np.where(circle_first, nearest_circle_t, boundary_t)
-    target = np.where(circle_first, nearest_circle, boundary_target)
-    return RayHits(distance=distance, target=target, hit_x=ox + distance * dx)
+    # Circles, sparse: per (circle, world, agent) pair, in the agent's frame.
+    relative = circle_centres - origins[:, :, None, :]  # [N, A, C, 2], float64
+    cos_64, sin_64 = np.cos(facings)[..., None], np.sin(facings)[..., None]
+    forward = (relative[..., 0] * cos_64 + relative[..., 1] * sin_64).transpose(2, 0, 1).ravel()
+    left = (relative[..., 1] * cos_64 - relative[..., 0] * sin_64).transpose(2, 0, 1).ravel()
+    radii = np.repeat(np.asarray(circle_radii, dtype=np.float64), num_worlds * num_agents)
+    flat, circle_t, slot = _circle_hits(forward, left, radii, fans, num_worlds * num_agents)
+    circle_t = circle_t.astype(f32)
+    distance = distance.reshape(-1)
+    np.minimum.at(distance, flat, circle_t)
+    first = circle_t <= distance[flat]
+    target = target.reshape(-1)
+    target[flat[first]] = slot[first]
+
+    shape = (len(ray_angles), num_worlds, num_agents)
+    distance, target = distance.reshape(shape), target.reshape(shape)
+    hit_x = distance * dx
+    hit_x += ox
+    return RayHits(distance=distance, target=target, hit_x=hit_x)
+
+
+def _circle_hits(
+    forward: np.ndarray, left: np.ndarray, radii: np.ndarray, fans: Sequence[RayFan], agents: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every (ray, circle) intersection, sparse.
+
+    Args:
+        forward: ``[C * agents]`` circle centres ahead of each agent, pairs circle-major.
+        left: ``[C * agents]`` circle centres to the left of each agent.
+        radii: ``[C * agents]`` the circles' radii.
+        fans: the ray fans (rays numbered fan by fan).
+        agents: ``N * A``, the number of ray origins.
+
+    Returns:
+        ``flat`` (``ray * agents + agent``), the distance ``t`` and the circle slot of
+        each intersection.
+    """
+    pairs = forward.size
+    offset = forward * forward + left * left - radii * radii  # |c|^2 - r^2
+    # From inside a circle every ray hits it at distance 0 (pymunk's convention): give
+    # such a circle the whole turn as its arc.
+    covered = np.minimum(radii * radii / np.maximum(offset + radii * radii, 1e-12), 1.0)
+    half_arc = np.where(offset > 0, np.arcsin(np.sqrt(covered)), np.pi)
+    bearing = np.arctan2(left, forward)
+
+    # Ranges of ray indices [low, high] per (fan, wrap, pair).
+    first = np.repeat([fan.first for fan in fans], len(_WRAPS))[:, None]
+    spacing = np.repeat([fan.spacing for fan in fans], len(_WRAPS))[:, None]
+    count = np.repeat([fan.count for fan in fans], len(_WRAPS))[:, None]
+    ray_offset = np.repeat(np.cumsum([0] + [fan.count for fan in fans])[:-1], len(_WRAPS))
+    centre = bearing + np.tile(_WRAPS, len(fans))[:, None] - first  # [F * 3, pairs]
+    low = np.maximum(np.ceil((centre - half_arc) / spacing), 0).astype(np.int64)
+    high = np.minimum(np.floor((centre + half_arc) / spacing), count - 1).astype(np.int64)
+    hits_per_range = np.maximum(high - low + 1, 0).ravel()
+
+    ranges = np.repeat(np.arange(hits_per_range.size), hits_per_range)
+    starts = np.cumsum(hits_per_range) - hits_per_range
+    index_in_fan = low.ravel()[ranges] + (np.arange(ranges.size) - starts[ranges])
+    pair = ranges % pairs
+    ray = ray_offset[ranges // pairs] + index_in_fan
+    angles = np.concatenate([fan.angles for fan in fans])[ray]
+    along = forward[pair] * np.cos(angles) + left[pair] * np.sin(angles)
+    # Rounding at the edge of an arc can make a grazing ray's discriminant slightly
+    # negative: clamp it (the ray touches the circle). From inside, t < 0: clamp to 0.
+    t = np.maximum(along - np.sqrt(np.maximum(along * along - offset[pair], 0.0)), 0.0)
+    return ray * agents + pair % agents, t, (pair // agents).astype(np.int8)

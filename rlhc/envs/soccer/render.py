@@ -66,7 +66,7 @@ def render_pitch(
         fan = game.sensors.worker_fan
         for player in range(NUM_PLAYERS):
             for k, angle in enumerate(fan.angles):
-                length = min(float(hits.distance[0, player, k]), fan.length)
+                length = min(float(hits.distance[k, 0, player]), fan.length)
                 direction = angles[player] + angle
                 end = positions[player] + length * np.array([np.cos(direction), np.sin(direction)])
                 canvas.segment(positions[player], end, RAY_COLOR, width=0.02)
