@@ -112,7 +112,9 @@ def restore_policy(state: Mapping[str, Any], env: EnvBase) -> RestoredPolicy:
         training_env = make_training_env(cfg, num_envs=1, seed=0)
         training_env.transform.load_state_dict(state["env_transform"])
         normaliser = next(t for t in training_env.transform if isinstance(t, VecNormV2))
-        loc = {g: normaliser.loc[g, "observation"].clone() for g in actors}
-        scale = {g: normaliser.scale[g, "observation"].clone() for g in actors}
+        # Statistics that never saw data (a checkpoint saved before the first step) have
+        # a zero bias correction and come out NaN: leave those entries unnormalised.
+        loc = {g: normaliser.loc[g, "observation"].nan_to_num(0.0) for g in actors}
+        scale = {g: normaliser.scale[g, "observation"].nan_to_num(1.0, posinf=1.0) for g in actors}
         training_env.close()
     return RestoredPolicy(actors, loc, scale)

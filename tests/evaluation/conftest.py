@@ -1,0 +1,33 @@
+"""Fixtures of the evaluation tests: an untrained checkpoint per game, made in seconds."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from omegaconf import OmegaConf
+
+from rlhc.config import TrainConfig, register_configs
+
+CONF = Path(__file__).resolve().parents[2] / "conf"
+register_configs()
+
+
+def smoke_config(env: str, *overrides: str) -> TrainConfig:
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        cfg = compose(config_name="train", overrides=["experiment=smoke", f"env={env}", *overrides])
+    return OmegaConf.to_object(cfg)  # type: ignore[return-value]
+
+
+@pytest.fixture(scope="session")
+def checkpoints(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """``env -> run directory`` of a one-update smoke run (tennis normalises observations)."""
+    from rlhc.trainer import Trainer
+
+    runs = {}
+    for env in ("tennis", "soccer"):
+        run_dir = tmp_path_factory.mktemp(f"{env}_run")
+        Trainer(smoke_config(env, "algo.max_steps=256", "logger.backends=[csv]"), run_dir).train()
+        runs[env] = run_dir
+    return runs
