@@ -201,7 +201,17 @@ def group_runs(runs: Sequence[Run], group_by: Sequence[str] | None = None) -> di
 
 
 def differing_keys(runs: Sequence[Run]) -> list[str]:
-    """Config keys whose values differ between runs (seeds and bookkeeping excluded)."""
+    """Config keys whose values differ between runs (seeds and bookkeeping excluded).
+
+    Keys are compared within each game: runs of two games differ in every Table 3
+    value, so across games only ``env.name`` is reported, plus what varies inside a game.
+    """
+    by_env: dict[Any, list[Run]] = defaultdict(list)
+    for run in runs:
+        by_env[run.config.get("env.name")].append(run)
+    if len(by_env) > 1:
+        inside = {key for members in by_env.values() for key in differing_keys(members)}
+        return ["env.name", *sorted(inside)]
     configured = [run.config for run in runs if run.config]
     names = sorted({k for config in configured for k in config})
     return [

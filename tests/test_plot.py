@@ -113,3 +113,11 @@ def test_plot_of_a_real_smoke_run(tmp_path: Path) -> None:
     out = tmp_path / "smoke.png"
     plot.main([str(run), "--out", str(out)])
     assert out.stat().st_size > 0
+
+
+def test_runs_of_two_games_are_labelled_by_game(tmp_path: Path) -> None:
+    write_run(tmp_path, "soccer_run", "max", 0, 0.0, ("striker",))
+    tennis = write_run(tmp_path, "tennis_run", "max", 0, 0.0, ("racket",))
+    config = (tennis / ".hydra" / "config.yaml").read_text().replace("soccer", "tennis")
+    (tennis / ".hydra" / "config.yaml").write_text(config + "algo:\n  lr: 0.0003\n")
+    assert sorted(group_runs(load_runs([tmp_path]))) == ["name=soccer", "name=tennis"]
