@@ -115,7 +115,9 @@ def execute(run: Run) -> tuple[Run, int, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--study", nargs="+", choices=sorted(STUDIES), default=list(STUDIES))
-    parser.add_argument("--seeds", type=int, default=None, help="seeds per config (default: study's)")
+    parser.add_argument(
+        "--seeds", type=int, default=None, help="seeds per config (default: study's)"
+    )
     parser.add_argument("--jobs", type=int, default=2, help="runs in parallel (one per core)")
     args = parser.parse_args()
 
@@ -126,7 +128,9 @@ def main() -> None:
         for run, code, seconds in pool.map(execute, todo):
             status = "ok" if code == 0 else f"FAILED ({code}, see {run.run_dir / 'train.log'})"
             failures += code != 0
-            print(f"{run.study}/{run.config}/seed_{run.seed}: {status} in {seconds:.0f} s", flush=True)
+            print(
+                f"{run.study}/{run.config}/seed_{run.seed}: {status} in {seconds:.0f} s", flush=True
+            )
     sys.exit(1 if failures else 0)
 
 

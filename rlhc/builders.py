@@ -16,7 +16,7 @@ from torchrl.envs import Compose, EnvBase, RewardSum, TransformedEnv, VecNormV2
 from rlhc.config import FUSIONS, TrainConfig
 from rlhc.envs import make_env
 from rlhc.modules import NetworkConfig, make_actor, make_manager_critic, make_worker_critic
-from rlhc.objectives import make_ppo_loss
+from rlhc.objectives import HierarchicalPPOLoss, make_ppo_loss
 
 EPISODE_REWARD = "episode_reward"
 MODEL_KINDS = ("mlp", "lstm")
@@ -123,11 +123,11 @@ def network_config(cfg: TrainConfig) -> NetworkConfig:
 
 def make_agents(
     cfg: TrainConfig, env: EnvBase
-) -> tuple[dict[str, torch.nn.Module], dict[str, torch.nn.Module]]:
+) -> tuple[dict[str, torch.nn.Module], dict[str, HierarchicalPPOLoss]]:
     """One actor and one PPO loss (owning both critics) per group."""
     net = network_config(cfg)
     actors: dict[str, torch.nn.Module] = {}
-    losses: dict[str, torch.nn.Module] = {}
+    losses: dict[str, HierarchicalPPOLoss] = {}
     for group in group_names(env):
         actor = make_actor(env, group, net)
         actors[group] = actor

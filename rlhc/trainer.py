@@ -191,7 +191,7 @@ class Trainer:
                     out = loss(minibatch)
                     total = total + sum(out[term] for term in LOSS_TERMS)
                     for key in LOSS_DIAGNOSTICS:
-                        if key in out.keys():
+                        if key in out:
                             stats[f"{group}/{key}"].append(out[key].detach().float().mean().item())
                 self.optimizer.zero_grad(set_to_none=True)
                 total.backward()

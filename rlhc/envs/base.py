@@ -219,11 +219,12 @@ def validate_actions(
                 raise ValueError(
                     f"actions for group {name!r} have shape {action.shape}; expected {expected}"
                 )
-            if not np.issubdtype(action.dtype, np.integer):
-                if not np.all(np.isfinite(action)) or np.any(action != np.round(action)):
-                    raise ValueError(
-                        f"discrete actions for group {name!r} must be integers, got {action}"
-                    )
+            if not np.issubdtype(action.dtype, np.integer) and (
+                not np.all(np.isfinite(action)) or np.any(action != np.round(action))
+            ):
+                raise ValueError(
+                    f"discrete actions for group {name!r} must be integers, got {action}"
+                )
             bad = (action < 0) | (action >= spec.action.n)
             if np.any(bad):
                 raise ValueError(
