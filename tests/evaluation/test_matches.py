@@ -141,3 +141,27 @@ def test_checkpoints_with_different_observations_cannot_meet(tmp_path: Path) -> 
 
     with pytest.raises(ValueError, match="extended_obs"):
         player_options([str(tmp_path / "plain"), str(tmp_path / "extended")], "tennis")
+
+
+def test_restored_policy_sees_what_the_trained_actor_saw(checkpoints: dict[str, Path]) -> None:
+    from torchrl.envs import VecNormV2
+    from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+    from rlhc.builders import make_training_env
+    from rlhc.checkpoint import load_checkpoint
+    from rlhc.evaluation.policies import checkpoint_config, restore_policy
+
+    state = load_checkpoint(checkpoints["tennis"])
+    training_env = make_training_env(checkpoint_config(state), num_envs=3, seed=1)
+    training_env.transform.load_state_dict(state["env_transform"])
+    next(t for t in training_env.transform if isinstance(t, VecNormV2)).freeze()
+    normalised = training_env.reset()
+    raw = training_env.base_env.game.observe()["racket"].observation  # the same state
+    policy = restore_policy(state, make_env("tennis", num_envs=3, seed=1))
+    assert policy.loc is not None and policy.scale is not None
+    expected = (torch.from_numpy(raw) - policy.loc["racket"]) / policy.scale["racket"]
+    torch.testing.assert_close(normalised["racket", "observation"], expected)
+    raw_td = TensorDict({("racket", "observation"): torch.from_numpy(raw)}, [3])
+    with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad():
+        trained = policy.actors["racket"](normalised.clone())["racket", "action"]
+        torch.testing.assert_close(policy(raw_td)["racket"], trained)
