@@ -108,7 +108,8 @@ class SoccerOptions:
         # Tunnelling guard (pymunk has no continuous collision detection): within one
         # substep the ball, even after a collision with a running player, must travel
         # less than a quarter of the wall's thickness, and a player less than half its
-        # radius (the goal-mouth barrier that keeps players out of the nets is thin).
+        # radius (the goal-mouth barrier that keeps players out of the nets is as deep
+        # as the net only).
         substep = self.step_seconds / self.physics_substeps
         fastest_player = max(self.player_speed, self.side_speed)
         if (self.ball_max_speed + 2 * fastest_player) * substep >= WALL_THICKNESS / 4:

@@ -187,7 +187,7 @@ class SoccerGame(BatchedGame):
             physics.angles,
             physics.velocities,
         )
-        physics.write_velocities(velocities, angular)
+        physics.drive(velocities, angular)
         physics.step()
         self.step_count += 1
         self._observations = None

@@ -42,8 +42,9 @@ PLAYER_TEAM = np.array([0, 1, 0, 1], dtype=np.int64)
 #: whether each player is a striker (may rotate) or a goalie (facing fixed).
 PLAYER_IS_STRIKER = np.array([True, True, False, False])
 
-# Collision categories: the goal-mouth barrier stops players (a goalie may not hide in
-# the net) but lets the ball through.
+# Collision categories: the goal-mouth barrier (a box filling the net, its face on the
+# goal line) stops players (a goalie may not hide in the net) but lets the ball through.
+# It is a deep box, not a line: a player pushing into a line every step ends up through it.
 _PLAYER, _BALL, _WALL, _MOUTH = 0b0001, 0b0010, 0b0100, 0b1000
 _ALL = 0xFFFFFFFF
 
@@ -53,7 +54,10 @@ _FIELDS = (
     | pymunk.batch.BodyFields.VELOCITY
     | pymunk.batch.BodyFields.ANGULAR_VELOCITY
 )
-_VELOCITY_FIELDS = pymunk.batch.BodyFields.VELOCITY | pymunk.batch.BodyFields.ANGULAR_VELOCITY
+# pymunk's batch layout per body follows the flag order: angular velocity, then force.
+_CONTROL_FIELDS = pymunk.batch.BodyFields.ANGULAR_VELOCITY | pymunk.batch.BodyFields.FORCE
+#: body masses in body order (players, ball); the ball is light, so it flies off a kick.
+MASSES = np.array([2.0, 2.0, 2.0, 2.0, 0.45])
 
 
 @dataclass(frozen=True)
@@ -181,12 +185,15 @@ class SoccerPhysics:
                 self.space.add(box)
                 self.shape_tags[box] = (world, "wall")
             for team, sign in ((0, -1.0), (1, 1.0)):
-                x = ox + sign * geometry.half_length
-                mouth = pymunk.Segment(
-                    static,
-                    (x, oy - geometry.goal_half_width),
-                    (x, oy + geometry.goal_half_width),
-                    0.0,
+                near, far = sorted(
+                    (
+                        sign * geometry.half_length,
+                        sign * (geometry.half_length + geometry.goal_depth),
+                    )
+                )
+                low, high = oy - geometry.goal_half_width, oy + geometry.goal_half_width
+                mouth = pymunk.Poly(
+                    static, [(ox + near, low), (ox + far, low), (ox + far, high), (ox + near, high)]
                 )
                 mouth.elasticity, mouth.friction = 0.0, 0.0
                 mouth.filter = pymunk.ShapeFilter(categories=_MOUTH, mask=_PLAYER)
@@ -195,7 +202,7 @@ class SoccerPhysics:
             self.bodies.append([])
             for index in range(BODIES_PER_WORLD):
                 is_ball = index == BALL
-                mass = 0.45 if is_ball else 2.0
+                mass = float(MASSES[index])
                 # Infinite moments: players turn only by their actions, the ball's spin
                 # is irrelevant to the game.
                 body = pymunk.Body(mass, float("inf"))
@@ -238,17 +245,28 @@ class SoccerPhysics:
         self.angles[:] = bodies[..., 2]
         self.velocities[:] = bodies[..., 3:5]
 
-    def write_velocities(self, velocities: np.ndarray, angular_velocities: np.ndarray) -> None:
-        """Set every body's velocity ``[N, 5, 2]`` and angular velocity ``[N, 5]``."""
+    def drive(self, velocities: np.ndarray, angular_velocities: np.ndarray) -> None:
+        """Steer every body to velocity ``[N, 5, 2]`` within the first substep of the next step.
+
+        The change is applied as a force, not by setting the velocity: pymunk moves the
+        bodies *before* it solves contacts within a substep, so a velocity written into
+        a wall would first carry a player into it (0.15 m per step at full speed, a
+        lasting overlap when it keeps pushing); a force is integrated after contact
+        detection, and the contact solver removes its push into the wall.
+
+        Args:
+            velocities: ``[N, 5, 2]`` the velocities wanted.
+            angular_velocities: ``[N, 5]`` set directly (the moments are infinite).
+        """
+        substep = self.options.step_seconds / self.options.physics_substeps
         rows = np.zeros((self._rows, 3))
         bodies = rows[: BODIES_PER_WORLD * self.num_worlds].reshape(
             self.num_worlds, BODIES_PER_WORLD, 3
         )
-        bodies[..., 0:2] = velocities
-        bodies[..., 2] = angular_velocities
+        bodies[..., 0] = angular_velocities
+        bodies[..., 1:3] = MASSES[:, None] * (velocities - self.velocities) / substep
         self._write_buffer.set_float_buf(rows.reshape(-1))
-        pymunk.batch.set_space_bodies(self.space, _VELOCITY_FIELDS, self._write_buffer)
-        self.velocities[:] = velocities
+        pymunk.batch.set_space_bodies(self.space, _CONTROL_FIELDS, self._write_buffer)
 
     def teleport(self, mask: np.ndarray, positions: np.ndarray, angles: np.ndarray) -> None:
         """Place the bodies of the worlds in ``mask`` at rest; other worlds are untouched.

@@ -6,8 +6,9 @@ team's frame (team 1 rotates the pitch by 180°), so one rule serves both sides:
 * the striker walks to a point behind the ball on the line from the ball to the
   opponent goal (aiming at the half of the mouth away from the opponent goalie), turns
   towards it, and runs through the ball (a forward contact kicks);
-* the goalie stays one metre in front of its goal line, shadows the ball's ``y``
-  within the mouth, and steps out to clear a ball that comes close in front of it.
+* the goalie stays one metre in front of its goal line, where the line from the goal's
+  centre to the ball crosses it (narrowing the angle), and steps out to clear a ball
+  that comes close in front of it.
 """
 
 from __future__ import annotations
@@ -95,14 +96,13 @@ def goalie_actions(
     ball = _ball(state, team)
     position, _ = _player(state, 2 + team, team)
     goal_line = -options.pitch_length / 2
-    half_mouth = options.goal_width / 2
-    target = np.stack(
-        [
-            np.full(len(state), goal_line + _GOALIE_LINE_GAP),
-            np.clip(ball[:, 1], -half_mouth, half_mouth),
-        ],
-        axis=-1,
-    )
+    line = goal_line + _GOALIE_LINE_GAP
+    # Narrow the angle: stand where the line from the goal's centre to the ball crosses
+    # the goalie's line, within the mouth.
+    reach = np.maximum(ball[:, 0] - goal_line, _GOALIE_LINE_GAP)
+    cover = options.goal_width / 2 - options.player_radius / 2
+    target_y = np.clip(ball[:, 1] * _GOALIE_LINE_GAP / reach, -cover, cover)
+    target = np.stack([np.full(len(state), line), target_y], axis=-1)
     to_ball = ball - position
     clear = (to_ball[:, 0] > 0) & (np.linalg.norm(to_ball, axis=-1) < 1.5)
     error = target - position
