@@ -134,6 +134,9 @@ class TrainConfig:
         resume: a checkpoint file, or a run directory (its latest checkpoint), to continue.
         device: torch device.
         threads: torch intra-op threads (``0``: leave torch's default).
+        eval_freq: every this many frames, play ``eval_matches`` matches against the
+            scripted team and log the win rate (``0``: never).
+        eval_matches: matches per periodic evaluation (half on each side).
     """
 
     env: Any = MISSING
@@ -146,6 +149,8 @@ class TrainConfig:
     resume: str | None = None
     device: str = "cpu"
     threads: int = 1
+    eval_freq: int = 0
+    eval_matches: int = 20
 
 
 def register_configs() -> None:

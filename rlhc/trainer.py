@@ -22,6 +22,7 @@ from omegaconf import OmegaConf
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictSequential
 from torchrl.collectors import Collector
+from torchrl.envs import EnvBase
 from tqdm import tqdm
 
 from rlhc.builders import (
@@ -39,6 +40,7 @@ from rlhc.checkpoint import (
     set_rng_states,
 )
 from rlhc.config import TrainConfig
+from rlhc.envs import make_env
 from rlhc.loggers import MetricLogger
 
 #: Loss-output entries summed into the objective that is minimised.
@@ -98,6 +100,7 @@ class Trainer:
         self.policy = TensorDictSequential(*self.actors.values())
         self.optimizer = torch.optim.Adam(self._parameters(), lr=cfg.algo.lr)
 
+        self._eval_env: EnvBase | None = None
         self.frames = 0
         self.iteration = 0
         self.wall_time = 0.0
@@ -158,6 +161,8 @@ class Trainer:
 
                 if self._crossed(previous, cfg.logger.summary_freq) or self._finished():
                     last_metrics = self._summarise(summary, episodes)
+                    if cfg.eval_freq and self._crossed(previous, cfg.eval_freq):
+                        last_metrics.update(self.evaluate())
                     self.logger.log(self.frames, last_metrics)
                     progress.set_postfix(self._postfix(last_metrics))
                     summary.clear()
@@ -233,6 +238,25 @@ class Trainer:
             if name.endswith("/cumulative_reward"):
                 shown[name.split("/")[0]] = f"{value:+.3f}"
         return shown
+
+    def evaluate(self) -> dict[str, float]:
+        """Win/draw rates of the current policy (mode actions) against the scripted team."""
+        from rlhc.evaluation.matches import evaluate_against
+        from rlhc.evaluation.policies import restore_policy
+
+        if self._eval_env is None:
+            self._eval_env = make_env(
+                self.cfg.env.name,
+                num_envs=min(16, self.cfg.eval_matches),
+                seed=self.cfg.seed + 1,
+                **self.cfg.env.game_options(),
+            )
+        policy = restore_policy(self.state(), self._eval_env)
+        result = evaluate_against(policy, "scripted", self._eval_env, self.cfg.eval_matches)
+        return {
+            "eval/win_rate": float(result["win_rate"]),
+            "eval/draw_rate": float(result["draw_rate"]),
+        }
 
     # --- checkpoints ----------------------------------------------------------------
     def state(self) -> dict[str, Any]:

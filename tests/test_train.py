@@ -95,6 +95,15 @@ def test_same_seed_gives_the_same_first_logged_values(tmp_path: Path) -> None:
     assert strip[0] == strip[1]
 
 
+def test_periodic_evaluation_logs_a_win_rate(tmp_path: Path) -> None:
+    cfg = load("env=soccer", "algo.max_steps=512", "eval_freq=512", "eval_matches=4")
+    Trainer(cfg, tmp_path).train()
+    rows = read_metrics(tmp_path)
+    assert "eval/win_rate" not in rows[0]
+    assert 0.0 <= rows[1]["eval/win_rate"] <= 1.0
+    assert rows[1]["eval/win_rate"] + rows[1]["eval/draw_rate"] <= 1.0
+
+
 def test_lstm_is_refused_with_an_explanation(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="model=lstm is not supported"):
         Trainer(load("env=tennis", "model=lstm"), tmp_path)
