@@ -79,6 +79,23 @@ def test_a_ball_pushed_into_a_goal_gives_the_table_rewards(scorer: int) -> None:
     )
 
 
+@pytest.mark.parametrize("facing", [0.6, -2.0])
+def test_a_forward_touch_kicks_the_ball_along_the_facing(facing: float) -> None:
+    game = SoccerGame(num_worlds=2, seed=0)
+    direction = np.array([np.cos(facing), np.sin(facing)])
+    touching = game.options.player_radius + game.options.ball_radius + 0.01
+    positions, angles = scene(game, striker_0=(0.0, 0.0), ball=tuple(touching * direction))
+    angles[:, 0] = facing
+    game.place(positions, angles)
+    actions = idle(2)
+    actions["striker"][:, 0] = [0, 1]  # world 0: forward (kicks), world 1: backward
+    game.step(actions)
+    kicked, left_alone = game.physics.velocities[:, BALL]
+    assert np.linalg.norm(kicked) >= game.options.kick_speed
+    assert kicked @ direction / np.linalg.norm(kicked) > np.cos(np.deg2rad(5))
+    assert np.linalg.norm(left_alone) < 0.1
+
+
 def test_time_terms_are_options_and_max_cycles_truncates() -> None:
     game = SoccerGame(
         num_worlds=2, seed=0, max_cycles=5, striker_time_reward=0.0, goalie_time_reward=0.25

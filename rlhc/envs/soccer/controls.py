@@ -13,9 +13,9 @@ There is no no-op: the paper's table has none, and we follow it. A striker can h
 its position by rotating; a goalie, whose facing is fixed towards the opponent goal,
 always moves (alternating forward and backward keeps it in place on average).
 
-An action sets the player's velocity for the step (like Unity's
-``AddForce(..., VelocityChange)``: responsive, no momentum to fight); collisions during
-the step then push players around. Kicking is contact: a player that touches the ball
+An action sets the velocity the player reaches within the first physics substep (like
+Unity's ``AddForce(..., VelocityChange)``: responsive, no momentum to fight); collisions
+during the step then push players around. Kicking is contact: a player that touches the ball
 with the ball in front of it (within ±60° of its facing) and chooses *forward* adds
 ``kick_speed`` to the ball's velocity along its facing (Unity's soccer scales the kick
 by the forward input in the same way). Any other contact is a plain physical collision.
@@ -83,7 +83,7 @@ class Controls:
         angles: np.ndarray,
         velocities: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """The velocities to write before the physics step.
+        """The velocities every body should have, from this step's actions.
 
         Args:
             striker_actions: ``int [N, 2]`` (``striker_0``, ``striker_1``).

@@ -47,7 +47,13 @@ from rlhc.envs.base import (
 from rlhc.envs.soccer.config import SoccerOptions
 from rlhc.envs.soccer.controls import GOALIE_ACTIONS, STRIKER_ACTIONS, Controls
 from rlhc.envs.soccer.observations import MANAGER_SIZE, WORKER_SIZE, RaySensors
-from rlhc.envs.soccer.physics import BALL, NUM_PLAYERS, PitchGeometry, SoccerPhysics
+from rlhc.envs.soccer.physics import (
+    BALL,
+    NUM_PLAYERS,
+    PLAYER_NAMES,
+    PitchGeometry,
+    SoccerPhysics,
+)
 from rlhc.envs.soccer.rules import ROLE_BODIES, kickoff, rewards, scoring_team
 
 #: length of :meth:`SoccerGame.state`.
@@ -80,7 +86,7 @@ class SoccerGame(BatchedGame):
     groups = (
         GroupSpec(
             name="striker",
-            agents=("striker_0", "striker_1"),
+            agents=PLAYER_NAMES[0:2],
             observation_size=WORKER_SIZE,
             manager_observation_size=MANAGER_SIZE,
             action=DiscreteAction(len(STRIKER_ACTIONS)),
@@ -88,7 +94,7 @@ class SoccerGame(BatchedGame):
         ),
         GroupSpec(
             name="goalie",
-            agents=("goalie_0", "goalie_1"),
+            agents=PLAYER_NAMES[2:4],
             observation_size=WORKER_SIZE,
             manager_observation_size=MANAGER_SIZE,
             action=DiscreteAction(len(GOALIE_ACTIONS)),

@@ -42,7 +42,6 @@ OBJECT_TYPES: tuple[str, ...] = (
     "opponent_goalie",
 )
 NUM_TYPES = len(OBJECT_TYPES)
-_NOTHING = NUM_TYPES  # label of a ray that met nothing within range
 
 WORKER_RAYS, MANAGER_RAYS = 14, 20
 WORKER_FEATURES = NUM_TYPES + 1  # one-hot + distance

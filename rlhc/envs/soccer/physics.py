@@ -146,7 +146,7 @@ class SoccerPhysics:
         self.space.iterations = 10
         # A spatial hash beats pymunk's default tree by ~7x at 256 pitches: the bodies
         # are few per pitch and all about the same size.
-        self.space.use_spatial_hash(2.0, 10 * BODIES_PER_WORLD * num_worlds + 1000)
+        self.space.use_spatial_hash(5.0, 10 * BODIES_PER_WORLD * num_worlds + 1000)
         spacing = 2 * (self.geometry.half_length + self.geometry.goal_depth) + 4 * WALL_THICKNESS
         self.world_offset = np.zeros((num_worlds, 2))
         self.world_offset[:, 0] = np.arange(num_worlds) * (spacing + 10.0)
