@@ -1,0 +1,370 @@
+"""Training throughput: frames per second of the whole loop, ours vs the TorchRL route.
+
+A frame is one step of one world; a training frame/s counts collection, the
+hierarchical value estimator and the PPO epochs (paper Table 3 settings, one torch
+thread). Measured in one run, per ``--env`` and ``--critic``:
+
+* ``rlhc``: the project's own pipeline, built from the Hydra config exactly as
+  ``python -m rlhc.run`` builds it (``hydra.compose`` + :class:`rlhc.trainer.Trainer`),
+  the batched ``make_env`` game on the collection path;
+* ``wrapper``: the straightforward TorchRL route: the game's PettingZoo env
+  (``rlhc.envs.<game>.parallel_env()``) in ``torchrl.envs.PettingZooWrapper``, inside a
+  ``SerialEnv`` of the same number of worlds, adapted to the TensorDict contract with
+  TorchRL transforms (``RenameTransform`` for the manager observation that the wrapper
+  leaves in ``(group, "info")``, ``StepCounter`` for the root ``step_count``,
+  ``RewardSum``, and ``VecNormV2`` when the config normalises observations). Same
+  networks (``make_actor``, ``make_worker_critic``, ``make_manager_critic``), same loss
+  (``make_ppo_loss``), and the same ``Trainer.train`` loop (a subclass swaps the env).
+
+Both routes report ``train_frames_per_s`` per iteration in ``metrics.csv`` (the
+trainer times collection + update, not logging or checkpoints); the first
+``--warmup`` iterations are dropped and the rest are combined as total frames over
+total time. ``--breakdown`` summarises a py-spy profile of this script instead.
+
+Examples:
+    python benchmarks/train_throughput.py --env soccer tennis --critic hierarchical ppo
+    python benchmarks/train_throughput.py --env soccer --iterations 20 --skip-wrapper
+    py-spy record --format raw -o soccer.txt -- python benchmarks/train_throughput.py \\
+        --env soccer --critic hierarchical --iterations 40 --skip-wrapper
+    python benchmarks/train_throughput.py --breakdown soccer.txt
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import multiprocessing
+import os
+import platform
+import re
+import tempfile
+import time
+import warnings
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+RESULTS = Path(__file__).parent / "results" / "train_throughput.json"
+CONF_DIR = Path(__file__).resolve().parents[1] / "conf"
+
+
+def compose_config(env: str, critic: str, overrides: list[str]) -> Any:
+    """The training config ``python -m rlhc.run env=… critic=… <overrides>`` would use."""
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+    from omegaconf import OmegaConf
+
+    from rlhc.config import register_configs
+
+    register_configs()
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+        cfg = compose(config_name="train", overrides=[f"env={env}", f"critic={critic}", *overrides])
+    return OmegaConf.to_object(cfg)
+
+
+def bench_overrides(iterations: int, frames_per_batch: int) -> list[str]:
+    """Table 3 untouched; only the run length, the log backends and checkpoints change."""
+    return [
+        f"algo.max_steps={iterations * frames_per_batch}",
+        "logger.backends=[csv]",
+        "logger.progress=false",
+        "checkpoint_freq=1000000000",  # one checkpoint, at the end, outside the timing
+    ]
+
+
+# --- the TorchRL wrapper route -----------------------------------------------------------
+def make_wrapper_env(cfg: Any, num_envs: int) -> Any:
+    """``SerialEnv`` of ``PettingZooWrapper``\\ s, transformed to the TensorDict contract."""
+    import importlib
+
+    from pettingzoo.utils.wrappers import BaseParallelWrapper
+    from torchrl.envs import (
+        Compose,
+        PettingZooWrapper,
+        RenameTransform,
+        RewardSum,
+        SerialEnv,
+        StepCounter,
+        TransformedEnv,
+        VecNormV2,
+    )
+
+    from rlhc.builders import EPISODE_REWARD
+
+    game_module = importlib.import_module(f"rlhc.envs.{cfg.env.name}")
+    options = cfg.env.game_options()
+
+    class ResetInfos(BaseParallelWrapper):
+        # PettingZooWrapper sizes its info spec from reset()'s infos; our adapter adds
+        # "scoring_team" to step() infos only, which the wrapper cannot store. Give
+        # reset() the same info keys (-1: no team scored).
+        def reset(self, seed: int | None = None, options: dict | None = None) -> Any:
+            observations, infos = self.env.reset(seed=seed, options=options)
+            for info in infos.values():
+                info["scoring_team"] = -1
+            return observations, infos
+
+    def make_one(seed: int) -> Any:
+        return PettingZooWrapper(
+            ResetInfos(game_module.parallel_env(seed=seed, **options)),
+            return_state=False,
+            categorical_actions=True,
+            seed=seed,
+        )
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "PettingZoo in TorchRL is tested", UserWarning)
+        probe = make_one(cfg.seed)
+        groups = list(probe.group_map)
+        probe.close()
+        base = SerialEnv(
+            num_envs, [lambda i=i: make_one(cfg.seed + i) for i in range(num_envs)]
+        )  # fmt: skip
+    transforms: list[Any] = [
+        RenameTransform(
+            in_keys=[(g, "info", "manager_observation") for g in groups],
+            out_keys=[(g, "manager_observation") for g in groups],
+        ),
+        StepCounter(),
+        RewardSum(
+            in_keys=[(g, "reward") for g in groups],
+            out_keys=[(g, EPISODE_REWARD) for g in groups],
+        ),
+    ]
+    if cfg.algo.normalize_observations:
+        keys = [(g, key) for g in groups for key in ("observation", "manager_observation")]
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", "Support of VecNormV2", UserWarning)
+            transforms.append(VecNormV2(in_keys=keys, decay=0.99999, reduce_batch_dims=True))
+    return TransformedEnv(base, Compose(*transforms))
+
+
+def wrapper_trainer(cfg: Any, run_dir: Path) -> Any:
+    """A :class:`~rlhc.trainer.Trainer` whose collection env is the wrapper route."""
+    from types import SimpleNamespace
+
+    import torch
+    from omegaconf import OmegaConf
+    from tensordict.nn import TensorDictSequential
+
+    from rlhc.builders import Layout, network_config, validate
+    from rlhc.loggers import MetricLogger
+    from rlhc.modules import make_actor, make_manager_critic, make_worker_critic
+    from rlhc.objectives import make_ppo_loss
+    from rlhc.trainer import Trainer, seed_everything
+
+    class WrapperTrainer(Trainer):
+        # Same train() and _update() as the project's trainer; only the env differs.
+        def __init__(self, cfg: Any, run_dir: Path) -> None:
+            validate(cfg)
+            self.cfg, self.run_dir = cfg, run_dir
+            self.layout = Layout.from_config(cfg)
+            torch.set_num_threads(cfg.threads)
+            seed_everything(cfg.seed)
+            self.env = make_wrapper_env(cfg, self.layout.num_envs)
+            names = list(self.env.full_action_spec.keys(include_nested=False))
+            self.groups = [SimpleNamespace(name=name) for name in names]
+            net = network_config(cfg)
+            self.actors, self.losses = {}, {}
+            for group in names:
+                actor = make_actor(self.env, group, net)
+                self.actors[group] = actor
+                self.losses[group] = make_ppo_loss(
+                    actor=actor,
+                    worker_critic=make_worker_critic(self.env, group, net),
+                    manager_critic=make_manager_critic(self.env, group, net),
+                    group=group,
+                    gamma=cfg.algo.gamma,
+                    lmbda=cfg.algo.lmbda,
+                    fusion=cfg.critic.fusion,
+                    weight=cfg.critic.weight,
+                    manager_interval=cfg.critic.manager_interval,
+                    clip_epsilon=cfg.algo.clip_epsilon,
+                    entropy_coef=cfg.algo.entropy_coef,
+                    critic_coef=cfg.algo.critic_coef,
+                    normalize_advantage=cfg.algo.normalize_advantage,
+                )
+            self.policy = TensorDictSequential(*self.actors.values())
+            self.optimizer = torch.optim.Adam(self._parameters(), lr=cfg.algo.lr)
+            self.frames, self.iteration, self.wall_time = 0, 0, 0.0
+            config = OmegaConf.to_container(OmegaConf.structured(cfg), resolve=True)
+            self.logger = MetricLogger(cfg.logger, run_dir, run_name=run_dir.name, config=config)
+
+        def save(self) -> Path:  # the wrapper env has no game state to checkpoint
+            return self.run_dir
+
+    return WrapperTrainer(cfg, run_dir)
+
+
+# --- measuring ---------------------------------------------------------------------------
+def read_metrics(run_dir: Path) -> list[dict[str, float]]:
+    with (run_dir / "metrics.csv").open() as file:
+        return [{k: float(v) for k, v in row.items() if v not in ("", None)} for row in csv.DictReader(file)]  # fmt: skip
+
+
+def instrument(trainer: Any) -> dict[str, list[float]]:
+    """Record process CPU time per iteration and per update (wall time is in metrics.csv).
+
+    With one torch thread and a single-process env, CPU seconds are the seconds the
+    loop actually ran, so frames per CPU-second hardly depends on the machine's load.
+    """
+    cpu: dict[str, list[float]] = {"iteration": [], "update": []}
+    marks = [time.process_time()]
+    update, log = trainer._update, trainer.logger.log
+
+    def timed_update(batch: Any) -> Any:
+        start = time.process_time()
+        out = update(batch)
+        cpu["update"].append(time.process_time() - start)
+        return out
+
+    def timed_log(step: int, metrics: dict[str, float]) -> None:
+        marks.append(time.process_time())  # one log per iteration (see bench_route)
+        cpu["iteration"].append(marks[-1] - marks[-2])
+        log(step, metrics)
+
+    trainer._update, trainer.logger.log = timed_update, timed_log
+    return cpu
+
+
+def combine(
+    rows: list[dict[str, float]], cpu: dict[str, list[float]], frames_per_batch: int, warmup: int
+) -> dict[str, Any]:
+    """Frames over time of the iterations after the warm-up (one row per iteration)."""
+    timed = rows[warmup:]
+    if not timed:
+        raise ValueError(f"no iteration left after {warmup} warm-up iteration(s)")
+    train_time = sum(frames_per_batch / row["train_frames_per_s"] for row in timed)
+    collect_time = sum(frames_per_batch / row["env_steps_per_s"] for row in timed)
+    cpu_time = sum(cpu["iteration"][warmup:])
+    update_cpu = sum(cpu["update"][warmup:])
+    frames = frames_per_batch * len(timed)
+    return {
+        "train_frames_per_s": frames / train_time,
+        "collect_share": collect_time / train_time,
+        "train_frames_per_cpu_s": frames / cpu_time,
+        "collect_share_cpu": 1.0 - update_cpu / cpu_time,
+        "cpu_per_wall": cpu_time / train_time,
+        "timed_iterations": len(timed),
+        "per_iteration_train_frames_per_s": [round(r["train_frames_per_s"], 1) for r in timed],
+    }
+
+
+def bench_route(route: str, env: str, critic: str, iterations: int, warmup: int) -> dict[str, Any]:
+    from rlhc.builders import Layout
+    from rlhc.trainer import Trainer
+
+    layout = Layout.from_config(compose_config(env, critic, []))
+    cfg = compose_config(env, critic, bench_overrides(warmup + iterations, layout.frames_per_batch))
+    with tempfile.TemporaryDirectory(prefix=f"bench_{route}_") as tmp:
+        run_dir = Path(tmp)
+        start = time.perf_counter()
+        trainer = Trainer(cfg, run_dir) if route == "rlhc" else wrapper_trainer(cfg, run_dir)
+        build = time.perf_counter() - start
+        cpu = instrument(trainer)
+        trainer.train()
+        rows = read_metrics(run_dir)
+    if len(rows) != warmup + iterations:  # summary_freq <= frames per batch in Table 3
+        raise RuntimeError(f"expected one metrics row per iteration, got {len(rows)}")
+    result = {"env": env, "critic": critic, "route": route, "worlds": layout.num_envs,
+              "frames_per_batch": layout.frames_per_batch,
+              "minibatch": layout.minibatch_size, "warmup_iterations": warmup,
+              "build_s": build}  # fmt: skip
+    result.update(combine(rows, cpu, layout.frames_per_batch, warmup))
+    print(f"{env:7} {critic:13} {route:8} {result['train_frames_per_s']:>9,.0f} train frames/s, "
+          f"{result['train_frames_per_cpu_s']:>9,.0f} per CPU-s "
+          f"(collection {result['collect_share_cpu']:.0%} of the CPU time, "
+          f"{result['cpu_per_wall']:.0%} of a core, "
+          f"{result['timed_iterations']} iterations)", flush=True)  # fmt: skip
+    return result
+
+
+# --- py-spy profile summary --------------------------------------------------------------
+#: (category, regex on one collapsed stack); the first that matches wins, in this order.
+CATEGORIES: tuple[tuple[str, str], ...] = (
+    ("update: backward", r"backward \(torch/(autograd|_tensor)"),
+    ("update: optimizer (Adam, grad clip)", r"(step|_single_tensor_adam|_multi_tensor_adam|adam) \(torch/optim|clip_grad_norm_"),
+    ("update: value estimator (GAE)", r"value\.py\).*|hierarchical_gae"),
+    ("collect: env step (game, numpy/pymunk)", r"rlhc/envs/(soccer|tennis)/|pettingzoo_adapter|pymunk"),
+    ("collect: policy forward", r"collectors/.*;.*(tensordict/nn|torchrl/modules)"),
+    ("collect: TorchRL/TensorDict overhead", r"torchrl/(collectors|envs)/"),
+    ("update: loss forward", r"objectives/ppo\.py|torchrl/objectives/"),
+    ("update: minibatch indexing / TensorDict", r"trainer\.py\).*;.*tensordict/"),
+)  # fmt: skip
+
+
+def breakdown(path: Path) -> dict[str, float]:
+    """Share of samples per category in a ``py-spy record --format raw`` file."""
+    counts: Counter[str] = Counter()
+    total = 0
+    compiled = [(name, re.compile(pattern)) for name, pattern in CATEGORIES]
+    for line in path.read_text().splitlines():
+        stack, _, count = line.rpartition(" ")
+        if not stack or "train (rlhc/trainer.py" not in stack:
+            continue  # imports, config, set-up, teardown
+        total += int(count)
+        name = next((n for n, p in compiled if p.search(stack)), "other (trainer loop)")
+        counts[name] += int(count)
+    shares = {name: counts[name] / total for name, _ in counts.most_common()}
+    print(f"{total} samples inside Trainer.train")
+    for name, share in shares.items():
+        print(f"{share:6.1%}  {name}")
+    return shares
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--env", nargs="+", default=["soccer", "tennis"])
+    parser.add_argument("--critic", nargs="+", default=["hierarchical", "ppo"])
+    parser.add_argument("--iterations", type=int, default=10, help="timed iterations, ours")
+    parser.add_argument("--wrapper-iterations", type=int, default=2, help="timed, wrapper route")
+    parser.add_argument("--warmup", type=int, default=1, help="iterations dropped before timing")
+    parser.add_argument("--skip-wrapper", action="store_true", help="time the rlhc route only")
+    parser.add_argument("--breakdown", type=Path, help="summarise a py-spy raw profile and exit")
+    parser.add_argument("--output", type=Path, default=RESULTS)
+    args = parser.parse_args()
+    if args.breakdown is not None:
+        breakdown(args.breakdown)
+        return
+
+    load_before = os.getloadavg()
+    results = []
+    for env in args.env:
+        for critic in args.critic:
+            ours = bench_route("rlhc", env, critic, args.iterations, args.warmup)
+            results.append(ours)
+            if args.skip_wrapper:
+                continue
+            theirs = bench_route("wrapper", env, critic, args.wrapper_iterations, args.warmup)
+            results.append(theirs)
+            ratio = ours["train_frames_per_s"] / theirs["train_frames_per_s"]
+            cpu_ratio = ours["train_frames_per_cpu_s"] / theirs["train_frames_per_cpu_s"]
+            for row in (ours, theirs):
+                row["ratio_vs_wrapper"], row["cpu_ratio_vs_wrapper"] = ratio, cpu_ratio
+            print(f"{env:7} {critic:13} rlhc / wrapper: {ratio:.1f}x wall, {cpu_ratio:.1f}x CPU",
+                  flush=True)  # fmt: skip
+
+    print(f"\n{'env':7} {'critic':13} {'route':8} {'worlds':>6} {'frames/s':>9} {'/CPU-s':>9} "
+          f"{'collect':>7} {'core':>5} {'ratio':>6} {'CPU ratio':>9}")  # fmt: skip
+    for row in results:
+        ratio = row.get("ratio_vs_wrapper", math.nan)
+        cpu_ratio = row.get("cpu_ratio_vs_wrapper", math.nan)
+        print(f"{row['env']:7} {row['critic']:13} {row['route']:8} {row['worlds']:>6} "
+              f"{row['train_frames_per_s']:>9,.0f} {row['train_frames_per_cpu_s']:>9,.0f} "
+              f"{row['collect_share_cpu']:>7.0%} {row['cpu_per_wall']:>5.0%} {ratio:>6.1f} "
+              f"{cpu_ratio:>9.1f}")  # fmt: skip
+    meta = {"machine": platform.machine(), "cpus": multiprocessing.cpu_count(),
+            "python": platform.python_version(), "date": time.strftime("%Y-%m-%d %H:%M %Z"),
+            "loadavg_before": load_before, "loadavg_after": os.getloadavg(),
+            "iterations": args.iterations, "wrapper_iterations": args.wrapper_iterations,
+            "warmup": args.warmup}  # fmt: skip
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    args.output.write_text(json.dumps({"meta": meta, "results": results}, indent=2) + "\n")
+    print(f"wrote {args.output}")
+
+
+if __name__ == "__main__":
+    main()
