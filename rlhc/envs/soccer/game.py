@@ -18,6 +18,8 @@ ray types           ball, own goal, opponent goal, wall, teammate, opponent stri
                     opponent goalie
 striker reward      +1 its team scores, -0.1 its team concedes, -0.001 every step
 goalie reward       +0.1 its team scores, -1 its team concedes, +0.001 every step
+reward parts        ``StepOutcome.info``: ``striker_sparse_reward``, ``striker_time_reward``,
+                    ``goalie_sparse_reward``, ``goalie_time_reward`` (``[N, 2]`` each)
 termination         a goal (``StepOutcome.scoring_team`` says whose)
 truncation          ``max_cycles`` steps (default 500)
 state               ``float32 [28]``: ball (x, y, vx, vy), then per player in agent order

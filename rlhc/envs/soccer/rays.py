@@ -196,9 +196,12 @@ def _circle_hits(
     offset = forward * forward + left * left - radii * radii  # |c|^2 - r^2
     # From inside a circle every ray hits it at distance 0 (pymunk's convention): give
     # such a circle the whole turn as its arc.
+    # The angles only pick ray indices: float32 is precise enough and much faster.
     covered = np.minimum(radii * radii / np.maximum(offset + radii * radii, 1e-12), 1.0)
-    half_arc = np.where(offset > 0, np.arcsin(np.sqrt(covered)), np.pi)
-    bearing = np.arctan2(left, forward)
+    half_arc = np.where(
+        offset > 0, np.arcsin(np.sqrt(covered.astype(np.float32))), np.float32(np.pi)
+    )
+    bearing = np.arctan2(left.astype(np.float32), forward.astype(np.float32))
 
     # Ranges of ray indices [low, high] per (fan, wrap, pair).
     first = np.repeat([fan.first for fan in fans], len(_WRAPS))[:, None]
@@ -215,8 +218,8 @@ def _circle_hits(
     index_in_fan = low.ravel()[ranges] + (np.arange(ranges.size) - starts[ranges])
     pair = ranges % pairs
     ray = ray_offset[ranges // pairs] + index_in_fan
-    angles = np.concatenate([fan.angles for fan in fans])[ray]
-    along = forward[pair] * np.cos(angles) + left[pair] * np.sin(angles)
+    angles = np.concatenate([fan.angles for fan in fans])
+    along = forward[pair] * np.cos(angles)[ray] + left[pair] * np.sin(angles)[ray]
     # Rounding at the edge of an arc can make a grazing ray's discriminant slightly
     # negative: clamp it (the ray touches the circle). From inside, t < 0: clamp to 0.
     t = np.maximum(along - np.sqrt(np.maximum(along * along - offset[pair], 0.0)), 0.0)
