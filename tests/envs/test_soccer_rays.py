@@ -154,6 +154,21 @@ def test_rays_see_what_the_geometry_says() -> None:
     goalie_view = game.observe()["goalie"].observation[0, 0].reshape(WORKER_RAYS, WORKER_FEATURES)
     assert goalie_view[0, OBJECT_TYPES.index("wall")] == 1.0  # its right: a touch line 5 m away
     np.testing.assert_allclose(goalie_view[0, -1] * game.options.worker_ray_length, 5.0, atol=1e-4)
+    # goalie_0's manager: its rearmost rays (±135°) end in its own half, its forward rays
+    # (±7°, 14.8 m, a clear path) on the far wall, in the other half.
+    game.place(
+        np.array([[[-4.0, 3.0], [4.0, 3.0], [-6.8, 0.0], [6.8, 4.0], [0.0, -3.0]]]),
+        np.array([[0.0, np.pi, 0.0, np.pi, 0.0]]),
+    )
+    manager = game.observe()["goalie"].manager_observation[0, 0].reshape(-1, MANAGER_FEATURES)
+    own_half, hit = manager[:, NUM_TYPES], manager[:, NUM_TYPES + 1]
+    assert hit.all() and own_half[0] == own_half[-1] == 1.0 and own_half[9] == own_half[10] == 0.0
+    assert manager[9, OBJECT_TYPES.index("wall")] == 1.0
+    np.testing.assert_allclose(
+        manager[9, -1] * game.options.manager_ray_length,
+        14.8 / np.cos(np.deg2rad(135 / 19)),
+        atol=1e-3,
+    )
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
