@@ -24,6 +24,7 @@ rotated by 180° about the centre spot, with the teams swapped (a test checks it
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -110,13 +111,26 @@ class RaySensors:
     worker_ray_length: float
     manager_ray_length: float
 
-    @property
+    @functools.cached_property
     def worker_fan(self) -> RayFan:
         return RayFan(WORKER_RAYS, 180.0, self.worker_ray_length)
 
-    @property
+    @functools.cached_property
     def manager_fan(self) -> RayFan:
         return RayFan(MANAGER_RAYS, 270.0, self.manager_ray_length)
+
+    @functools.cached_property
+    def _ray_lengths(self) -> np.ndarray:
+        """``float32 [34, 1, 1]``: the range of every ray, worker rays first."""
+        lengths = [self.worker_ray_length] * WORKER_RAYS + [self.manager_ray_length] * MANAGER_RAYS
+        return np.array(lengths, dtype=np.float32)[:, None, None]
+
+    @functools.cached_property
+    def _circle_radii(self) -> np.ndarray:
+        """``float32 [4]``: radii of the circle slots (ball, then three players)."""
+        radii = np.full(VISIBLE_BODIES.shape[1], self.player_radius, dtype=np.float32)
+        radii[0] = self.ball_radius
+        return radii
 
     def cast(self, positions: np.ndarray, angles: np.ndarray) -> RayHits:
         """All 34 rays of the 4 players (worker rays first), ``[34, N, 4]`` ray-major.
@@ -125,13 +139,11 @@ class RaySensors:
             positions: ``[N, 5, 2]`` body positions (players, then the ball).
             angles: ``[N, 5]`` body angles.
         """
-        radii = np.full(VISIBLE_BODIES.shape[1], self.player_radius, dtype=np.float32)
-        radii[0] = self.ball_radius
         return cast_rays(
             origins=positions[:, :4],
             facings=angles[:, :4],
             circle_centres=positions[:, VISIBLE_BODIES],
-            circle_radii=radii,
+            circle_radii=self._circle_radii,
             fans=(self.worker_fan, self.manager_fan),
             geometry=self.geometry,
         )
@@ -150,10 +162,7 @@ class RaySensors:
         """
         hits = self.cast(positions, angles)
         num_worlds = positions.shape[0]
-        lengths = np.repeat(
-            np.array([self.worker_ray_length, self.manager_ray_length], dtype=np.float32),
-            [WORKER_RAYS, MANAGER_RAYS],
-        )[:, None, None]
+        lengths = self._ray_lengths
         hit = hits.distance <= lengths  # [R, N, 4]
         rows = hits.target.astype(np.int16)
         rows += _PLAYER_ROW

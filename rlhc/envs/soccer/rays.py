@@ -25,6 +25,7 @@ pymunk needs one Python call per ray.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -94,6 +95,43 @@ class RayHits:
     hit_x: np.ndarray
 
 
+@dataclass(frozen=True)
+class _FanLayout:
+    """Per-fan constants of a set of fans, computed once (tiny arrays, but many of them).
+
+    Rows of the ``[F * 3, 1]`` arrays are (fan, wrap) combinations.
+    """
+
+    angles: np.ndarray  # [R] float64
+    cos: np.ndarray  # [R] float64
+    sin: np.ndarray  # [R] float64
+    cos32: np.ndarray  # [R, 1, 1] float32, for ray-major broadcasting
+    sin32: np.ndarray  # [R, 1, 1] float32
+    first: np.ndarray  # [F * 3, 1]
+    spacing: np.ndarray  # [F * 3, 1]
+    last_index: np.ndarray  # [F * 3, 1] int64
+    ray_offset: np.ndarray  # [F * 3] int64
+    wrap: np.ndarray  # [F * 3, 1]
+
+
+@functools.lru_cache(maxsize=16)
+def _fan_layout(fans: tuple[RayFan, ...]) -> _FanLayout:
+    angles = np.concatenate([fan.angles for fan in fans])
+    wraps = len(_WRAPS)
+    return _FanLayout(
+        angles=angles,
+        cos=np.cos(angles),
+        sin=np.sin(angles),
+        cos32=np.cos(angles).astype(np.float32)[:, None, None],
+        sin32=np.sin(angles).astype(np.float32)[:, None, None],
+        first=np.repeat([fan.first for fan in fans], wraps)[:, None],
+        spacing=np.repeat([fan.spacing for fan in fans], wraps)[:, None],
+        last_index=np.repeat([fan.count - 1 for fan in fans], wraps)[:, None],
+        ray_offset=np.repeat(np.cumsum([0] + [fan.count for fan in fans])[:-1], wraps),
+        wrap=np.tile(_WRAPS, len(fans))[:, None],
+    )
+
+
 def cast_rays(
     origins: np.ndarray,
     facings: np.ndarray,
@@ -128,7 +166,7 @@ def cast_rays(
     f32 = np.float32
     num_worlds, num_agents = facings.shape
     num_circles = circle_centres.shape[2]
-    ray_angles = np.concatenate([fan.angles for fan in fans])
+    layout = _fan_layout(tuple(fans))
 
     # Boundary, dense and ray-major ([R, N, A]: numpy broadcasting is slow when the
     # innermost axis is short, and R = 34 is short). Through each pair of parallel walls
@@ -137,8 +175,7 @@ def cast_rays(
     origins32 = origins.astype(f32)
     ox, oy = origins32[..., 0], origins32[..., 1]
     cos_f, sin_f = np.cos(facings).astype(f32), np.sin(facings).astype(f32)
-    cos_r = np.cos(ray_angles).astype(f32)[:, None, None]
-    sin_r = np.sin(ray_angles).astype(f32)[:, None, None]
+    cos_r, sin_r = layout.cos32, layout.sin32
     dx = cos_f * cos_r - sin_f * sin_r
     dy = sin_f * cos_r + cos_f * sin_r
     a, b = f32(geometry.half_length), f32(geometry.half_width)
@@ -161,7 +198,7 @@ def cast_rays(
     forward = (relative[..., 0] * cos_64 + relative[..., 1] * sin_64).transpose(2, 0, 1).ravel()
     left = (relative[..., 1] * cos_64 - relative[..., 0] * sin_64).transpose(2, 0, 1).ravel()
     radii = np.repeat(np.asarray(circle_radii, dtype=np.float64), num_worlds * num_agents)
-    flat, circle_t, slot = _circle_hits(forward, left, radii, fans, num_worlds * num_agents)
+    flat, circle_t, slot = _circle_hits(forward, left, radii, layout, num_worlds * num_agents)
     circle_t = circle_t.astype(f32)
     distance = distance.reshape(-1)
     np.minimum.at(distance, flat, circle_t)
@@ -169,7 +206,7 @@ def cast_rays(
     target = target.reshape(-1)
     target[flat[first]] = slot[first]
 
-    shape = (len(ray_angles), num_worlds, num_agents)
+    shape = (len(layout.angles), num_worlds, num_agents)
     distance, target = distance.reshape(shape), target.reshape(shape)
     hit_x = distance * dx
     hit_x += ox
@@ -177,7 +214,7 @@ def cast_rays(
 
 
 def _circle_hits(
-    forward: np.ndarray, left: np.ndarray, radii: np.ndarray, fans: Sequence[RayFan], agents: int
+    forward: np.ndarray, left: np.ndarray, radii: np.ndarray, layout: _FanLayout, agents: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every (ray, circle) intersection, sparse.
 
@@ -185,7 +222,7 @@ def _circle_hits(
         forward: ``[C * agents]`` circle centres ahead of each agent, pairs circle-major.
         left: ``[C * agents]`` circle centres to the left of each agent.
         radii: ``[C * agents]`` the circles' radii.
-        fans: the ray fans (rays numbered fan by fan).
+        layout: the fans' constants (rays numbered fan by fan).
         agents: ``N * A``, the number of ray origins.
 
     Returns:
@@ -204,22 +241,19 @@ def _circle_hits(
     bearing = np.arctan2(left.astype(np.float32), forward.astype(np.float32))
 
     # Ranges of ray indices [low, high] per (fan, wrap, pair).
-    first = np.repeat([fan.first for fan in fans], len(_WRAPS))[:, None]
-    spacing = np.repeat([fan.spacing for fan in fans], len(_WRAPS))[:, None]
-    count = np.repeat([fan.count for fan in fans], len(_WRAPS))[:, None]
-    ray_offset = np.repeat(np.cumsum([0] + [fan.count for fan in fans])[:-1], len(_WRAPS))
-    centre = bearing + np.tile(_WRAPS, len(fans))[:, None] - first  # [F * 3, pairs]
-    low = np.maximum(np.ceil((centre - half_arc) / spacing), 0).astype(np.int64)
-    high = np.minimum(np.floor((centre + half_arc) / spacing), count - 1).astype(np.int64)
+    centre = bearing + (layout.wrap - layout.first)  # [F * 3, pairs]
+    low = np.maximum(np.ceil((centre - half_arc) / layout.spacing), 0).astype(np.int64)
+    high = np.minimum(np.floor((centre + half_arc) / layout.spacing), layout.last_index).astype(
+        np.int64
+    )
     hits_per_range = np.maximum(high - low + 1, 0).ravel()
 
     ranges = np.repeat(np.arange(hits_per_range.size), hits_per_range)
     starts = np.cumsum(hits_per_range) - hits_per_range
     index_in_fan = low.ravel()[ranges] + (np.arange(ranges.size) - starts[ranges])
     pair = ranges % pairs
-    ray = ray_offset[ranges // pairs] + index_in_fan
-    angles = np.concatenate([fan.angles for fan in fans])
-    along = forward[pair] * np.cos(angles)[ray] + left[pair] * np.sin(angles)[ray]
+    ray = layout.ray_offset[ranges // pairs] + index_in_fan
+    along = forward[pair] * layout.cos[ray] + left[pair] * layout.sin[ray]
     # Rounding at the edge of an arc can make a grazing ray's discriminant slightly
     # negative: clamp it (the ray touches the circle). From inside, t < 0: clamp to 0.
     t = np.maximum(along - np.sqrt(np.maximum(along * along - offset[pair], 0.0)), 0.0)
