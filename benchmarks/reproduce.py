@@ -81,11 +81,12 @@ STUDIES: dict[str, tuple[dict[str, tuple[str, ...]], int, int]] = {
 
 
 def plan(studies: list[str], seeds: int | None) -> list[Run]:
+    """Seed-major order, so that a partial reproduction compares configs on equal seeds."""
     runs = []
     for study in studies:
         configs, default_seeds, max_steps = STUDIES[study]
-        for config, overrides in configs.items():
-            for seed in range(seeds if seeds is not None else default_seeds):
+        for seed in range(seeds if seeds is not None else default_seeds):
+            for config, overrides in configs.items():
                 runs.append(Run(study, config, seed, overrides, max_steps))
     return runs
 
