@@ -777,8 +777,9 @@ def build_report(args: argparse.Namespace) -> str:
         "",
         "## What was run",
         "",
-        "Each configuration is a separate `python -m rlhc.run` process (torch threads: see the settings table), "
-        "a time on this machine. A run counts as complete when its "
+        "Each run is a separate `python -m rlhc.run` process (torch threads: see the "
+        "settings table); `reproduce.py --jobs` of them train at once. A run counts as "
+        "complete when its "
         "`checkpoints/latest.pt` has reached the study's `max_steps` frames (one frame = "
         "one step of one world).",
         "",
