@@ -91,6 +91,21 @@ def plan(studies: list[str], seeds: int | None) -> list[Run]:
     return runs
 
 
+def code_version() -> str:
+    """The git commit the run trains with (``+dirty`` with uncommitted changes)."""
+    root = Path(__file__).resolve().parents[1]
+    try:
+        commit = subprocess.check_output(["git", "rev-parse", "HEAD"], cwd=root, text=True)
+        dirty = subprocess.check_output(
+            ["git", "status", "--porcelain", "--untracked-files=no", "rlhc", "conf"],
+            cwd=root,
+            text=True,
+        )
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown (not a git checkout)"
+    return commit.strip() + ("+dirty" if dirty.strip() else "")
+
+
 def execute(run: Run) -> tuple[Run, int, float]:
     """Train one run (resuming it if a checkpoint exists); returns its exit code and time."""
     run.run_dir.mkdir(parents=True, exist_ok=True)
@@ -109,6 +124,8 @@ def execute(run: Run) -> tuple[Run, int, float]:
         command.append(f"resume={run.run_dir}")
     start = time.perf_counter()
     with (run.run_dir / "train.log").open("a") as log:
+        log.write(f"code version: {code_version()}\n")
+        log.flush()
         code = subprocess.call(command, stdout=log, stderr=subprocess.STDOUT)
     return run, code, time.perf_counter() - start
 
