@@ -46,7 +46,15 @@ PAPER_METRICS: dict[str, str] = {
     "state_value": "value estimate",
 }
 #: Config keys that never distinguish configurations (seeds are what gets averaged).
-IGNORED_KEYS = ("seed", "resume", "device", "threads", "checkpoint_freq")
+IGNORED_KEYS = (
+    "seed",
+    "resume",
+    "device",
+    "threads",
+    "checkpoint_freq",
+    "eval_freq",
+    "eval_matches",
+)
 IGNORED_PREFIXES = ("logger.",)
 #: Label keys when all runs share one configuration.
 FALLBACK_LABEL_KEYS = ("env.name", "critic.fusion")
