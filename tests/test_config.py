@@ -132,6 +132,11 @@ def test_wrong_type_fails_fast(override: str) -> None:
     assert override.split("=")[1] in message
 
 
+def test_soccer_time_rewards_reach_the_game_options() -> None:
+    cfg = load("env=soccer", "env.striker_time_reward=-0.01")
+    assert cfg.env.game_options() == {"striker_time_reward": -0.01}
+
+
 def test_soccer_has_no_extended_obs() -> None:
     with pytest.raises((ConfigCompositionException, ConfigKeyError)):
         load("env=soccer", "env.extended_obs=true")

@@ -52,6 +52,13 @@ class TennisEnvConfig(EnvConfig):
 
 @dataclass
 class SoccerEnvConfig(EnvConfig):
-    """2 vs 2 soccer (striker + goalie per team)."""
+    """2 vs 2 soccer (striker + goalie per team).
+
+    Attributes:
+        striker_time_reward: per-step reward of each striker (``None``: the game's -0.001).
+        goalie_time_reward: per-step reward of each goalie (``None``: the game's +0.001).
+    """
 
     name: str = "soccer"
+    striker_time_reward: float | None = None
+    goalie_time_reward: float | None = None
