@@ -250,6 +250,8 @@ def combine(
         "cpu_per_wall": cpu_time / train_time,
         "timed_iterations": len(timed),
         "per_iteration_train_frames_per_s": [round(r["train_frames_per_s"], 1) for r in timed],
+        "per_iteration_cpu_s": [round(t, 3) for t in cpu["iteration"]],
+        "per_iteration_update_cpu_s": [round(t, 3) for t in cpu["update"]],
     }
 
 
@@ -315,6 +317,17 @@ def breakdown(path: Path) -> dict[str, float]:
     return shares
 
 
+def write_results(path: Path, results: list[dict[str, Any]]) -> None:
+    """Add ``results`` to the file, replacing rows of the same env, critic and route."""
+    measured = {(r["env"], r["critic"], r["route"]) for r in results}
+    kept = []
+    if path.exists():
+        kept = [r for r in json.loads(path.read_text())["results"]
+                if (r["env"], r["critic"], r["route"]) not in measured]  # fmt: skip
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps({"results": kept + results}, indent=2) + "\n")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", nargs="+", default=["soccer", "tennis"])
@@ -322,6 +335,7 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=10, help="timed iterations, ours")
     parser.add_argument("--wrapper-iterations", type=int, default=2, help="timed, wrapper route")
     parser.add_argument("--warmup", type=int, default=1, help="iterations dropped before timing")
+    parser.add_argument("--wrapper-warmup", type=int, default=1, help="the same, wrapper route")
     parser.add_argument("--skip-wrapper", action="store_true", help="time the rlhc route only")
     parser.add_argument("--breakdown", type=Path, help="summarise a py-spy raw profile and exit")
     parser.add_argument("--output", type=Path, default=RESULTS)
@@ -338,7 +352,9 @@ def main() -> None:
             results.append(ours)
             if args.skip_wrapper:
                 continue
-            theirs = bench_route("wrapper", env, critic, args.wrapper_iterations, args.warmup)
+            theirs = bench_route(
+                "wrapper", env, critic, args.wrapper_iterations, args.wrapper_warmup
+            )
             results.append(theirs)
             ratio = ours["train_frames_per_s"] / theirs["train_frames_per_s"]
             cpu_ratio = ours["train_frames_per_cpu_s"] / theirs["train_frames_per_cpu_s"]
@@ -360,9 +376,10 @@ def main() -> None:
             "python": platform.python_version(), "date": time.strftime("%Y-%m-%d %H:%M %Z"),
             "loadavg_before": load_before, "loadavg_after": os.getloadavg(),
             "iterations": args.iterations, "wrapper_iterations": args.wrapper_iterations,
-            "warmup": args.warmup}  # fmt: skip
-    args.output.parent.mkdir(parents=True, exist_ok=True)
-    args.output.write_text(json.dumps({"meta": meta, "results": results}, indent=2) + "\n")
+            "warmup": args.warmup, "wrapper_warmup": args.wrapper_warmup}  # fmt: skip
+    for row in results:
+        row["measured"] = meta
+    write_results(args.output, results)
     print(f"wrote {args.output}")
 
 
