@@ -193,6 +193,14 @@ def wrapper_trainer(cfg: Any, run_dir: Path) -> Any:
             config = OmegaConf.to_container(OmegaConf.structured(cfg), resolve=True)
             self.logger = MetricLogger(cfg.logger, run_dir, run_name=run_dir.name, config=config)
 
+        def _update(self, batch: Any) -> dict[str, float]:
+            # TorchRL's batched envs raise torch's thread count when they close
+            # (BatchedEnvBase.close: + num_workers); seen here before the last update,
+            # which then ran 2 OpenMP threads and took 25-50x longer on the loaded
+            # machine. Keep the configured count, as the rlhc trainer has it.
+            torch.set_num_threads(self.cfg.threads)
+            return super()._update(batch)
+
         def save(self) -> Path:  # the wrapper env has no game state to checkpoint
             return self.run_dir
 
@@ -289,8 +297,9 @@ def bench_route(route: str, env: str, critic: str, iterations: int, warmup: int)
 CATEGORIES: tuple[tuple[str, str], ...] = (
     ("update: backward", r"backward \(torch/(autograd|_tensor)"),
     ("update: optimizer (Adam, grad clip)", r"(step|_single_tensor_adam|_multi_tensor_adam|adam) \(torch/optim|clip_grad_norm_"),
-    ("update: value estimator (GAE)", r"value\.py\).*|hierarchical_gae"),
+    ("update: value estimator (critics + GAE)", r"objectives/value\.py|hierarchical_gae"),
     ("collect: env step (game, numpy/pymunk)", r"rlhc/envs/(soccer|tennis)/|pettingzoo_adapter|pymunk"),
+    ("collect: env adapter (arrays to TensorDict)", r"rlhc/envs/torchrl_adapter\.py|libs/pettingzoo\.py"),
     ("collect: policy forward", r"collectors/.*;.*(tensordict/nn|torchrl/modules)"),
     ("collect: TorchRL/TensorDict overhead", r"torchrl/(collectors|envs)/"),
     ("update: loss forward", r"objectives/ppo\.py|torchrl/objectives/"),
