@@ -80,36 +80,23 @@ def make_wrapper_env(cfg: Any, num_envs: int) -> Any:
     """``SerialEnv`` of ``PettingZooWrapper``\\ s, transformed to the TensorDict contract."""
     import importlib
 
-    from pettingzoo.utils.wrappers import BaseParallelWrapper
     from torchrl.envs import (
         Compose,
         PettingZooWrapper,
         RenameTransform,
-        RewardSum,
         SerialEnv,
         StepCounter,
         TransformedEnv,
-        VecNormV2,
     )
 
-    from rlhc.builders import EPISODE_REWARD
+    from rlhc.builders import with_training_transforms
 
     game_module = importlib.import_module(f"rlhc.envs.{cfg.env.name}")
     options = cfg.env.game_options()
 
-    class ResetInfos(BaseParallelWrapper):
-        # PettingZooWrapper sizes its info spec from reset()'s infos; our adapter adds
-        # "scoring_team" to step() infos only, which the wrapper cannot store. Give
-        # reset() the same info keys (-1: no team scored).
-        def reset(self, seed: int | None = None, options: dict | None = None) -> Any:
-            observations, infos = self.env.reset(seed=seed, options=options)
-            for info in infos.values():
-                info["scoring_team"] = -1
-            return observations, infos
-
     def make_one(seed: int) -> Any:
         return PettingZooWrapper(
-            ResetInfos(game_module.parallel_env(seed=seed, **options)),
+            game_module.parallel_env(seed=seed, **options),
             return_state=False,
             categorical_actions=True,
             seed=seed,
@@ -123,76 +110,30 @@ def make_wrapper_env(cfg: Any, num_envs: int) -> Any:
         base = SerialEnv(
             num_envs, [lambda i=i: make_one(cfg.seed + i) for i in range(num_envs)]
         )  # fmt: skip
-    transforms: list[Any] = [
-        RenameTransform(
-            in_keys=[(g, "info", "manager_observation") for g in groups],
-            out_keys=[(g, "manager_observation") for g in groups],
+    # Rename the manager observation out of the infos and count steps, then the same
+    # episode-return tracking and observation norm as the project's training env.
+    renamed = TransformedEnv(
+        base,
+        Compose(
+            RenameTransform(
+                in_keys=[(g, "info", "manager_observation") for g in groups],
+                out_keys=[(g, "manager_observation") for g in groups],
+            ),
+            StepCounter(),
         ),
-        StepCounter(),
-        RewardSum(
-            in_keys=[(g, "reward") for g in groups],
-            out_keys=[(g, EPISODE_REWARD) for g in groups],
-        ),
-    ]
-    if cfg.algo.normalize_observations:
-        keys = [(g, key) for g in groups for key in ("observation", "manager_observation")]
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", "Support of VecNormV2", UserWarning)
-            transforms.append(VecNormV2(in_keys=keys, decay=0.99999, reduce_batch_dims=True))
-    return TransformedEnv(base, Compose(*transforms))
+    )
+    return with_training_transforms(cfg, renamed)
 
 
 def wrapper_trainer(cfg: Any, run_dir: Path) -> Any:
     """A :class:`~rlhc.trainer.Trainer` whose collection env is the wrapper route."""
-    from types import SimpleNamespace
-
     import torch
-    from omegaconf import OmegaConf
-    from tensordict.nn import TensorDictSequential
 
-    from rlhc.builders import Layout, network_config, validate
-    from rlhc.loggers import MetricLogger
-    from rlhc.modules import make_actor, make_manager_critic, make_worker_critic
-    from rlhc.objectives import make_ppo_loss
-    from rlhc.trainer import Trainer, seed_everything
+    from rlhc.builders import Layout
+    from rlhc.trainer import Trainer
 
     class WrapperTrainer(Trainer):
         # Same train() and _update() as the project's trainer; only the env differs.
-        def __init__(self, cfg: Any, run_dir: Path) -> None:
-            validate(cfg)
-            self.cfg, self.run_dir = cfg, run_dir
-            self.layout = Layout.from_config(cfg)
-            torch.set_num_threads(cfg.threads)
-            seed_everything(cfg.seed)
-            self.env = make_wrapper_env(cfg, self.layout.num_envs)
-            names = list(self.env.full_action_spec.keys(include_nested=False))
-            self.groups = [SimpleNamespace(name=name) for name in names]
-            net = network_config(cfg)
-            self.actors, self.losses = {}, {}
-            for group in names:
-                actor = make_actor(self.env, group, net)
-                self.actors[group] = actor
-                self.losses[group] = make_ppo_loss(
-                    actor=actor,
-                    worker_critic=make_worker_critic(self.env, group, net),
-                    manager_critic=make_manager_critic(self.env, group, net),
-                    group=group,
-                    gamma=cfg.algo.gamma,
-                    lmbda=cfg.algo.lmbda,
-                    fusion=cfg.critic.fusion,
-                    weight=cfg.critic.weight,
-                    manager_interval=cfg.critic.manager_interval,
-                    clip_epsilon=cfg.algo.clip_epsilon,
-                    entropy_coef=cfg.algo.entropy_coef,
-                    critic_coef=cfg.algo.critic_coef,
-                    normalize_advantage=cfg.algo.normalize_advantage,
-                )
-            self.policy = TensorDictSequential(*self.actors.values())
-            self.optimizer = torch.optim.Adam(self._parameters(), lr=cfg.algo.lr)
-            self.frames, self.iteration, self.wall_time = 0, 0, 0.0
-            config = OmegaConf.to_container(OmegaConf.structured(cfg), resolve=True)
-            self.logger = MetricLogger(cfg.logger, run_dir, run_name=run_dir.name, config=config)
-
         def _update(self, batch: Any) -> dict[str, float]:
             # TorchRL's batched envs raise torch's thread count when they close
             # (BatchedEnvBase.close: + num_workers); seen here before the last update,
@@ -204,7 +145,8 @@ def wrapper_trainer(cfg: Any, run_dir: Path) -> Any:
         def save(self) -> Path:  # the wrapper env has no game state to checkpoint
             return self.run_dir
 
-    return WrapperTrainer(cfg, run_dir)
+    env = make_wrapper_env(cfg, Layout.from_config(cfg).num_envs)
+    return WrapperTrainer(cfg, run_dir, env=env)
 
 
 # --- measuring ---------------------------------------------------------------------------

@@ -88,12 +88,16 @@ def make_training_env(cfg: TrainConfig, num_envs: int, seed: int) -> Transformed
     base = make_env(
         cfg.env.name, num_envs=num_envs, seed=seed, device=cfg.device, **cfg.env.game_options()
     )
-    groups = [group.name for group in base.game.groups]
+    return with_training_transforms(cfg, base)
+
+
+def with_training_transforms(cfg: TrainConfig, base: EnvBase) -> TransformedEnv:
+    """Episode-return tracking (``(g, "episode_reward")``) and optional observation norm."""
+    groups = group_names(base)
     transforms = [
         RewardSum(
             in_keys=[(g, "reward") for g in groups],
             out_keys=[(g, EPISODE_REWARD) for g in groups],
-            reset_keys=["_reset"] * len(groups),
         )
     ]
     if cfg.algo.normalize_observations:
@@ -108,9 +112,8 @@ def make_training_env(cfg: TrainConfig, num_envs: int, seed: int) -> Transformed
 
 
 def group_names(env: EnvBase) -> list[str]:
-    """The agent groups of an env built by :func:`make_training_env`."""
-    base = env.base_env if isinstance(env, TransformedEnv) else env
-    return [group.name for group in base.game.groups]
+    """The agent groups of a multi-agent env: the top-level entries of its action spec."""
+    return [str(name) for name in env.full_action_spec.keys(include_nested=False)]
 
 
 def network_config(cfg: TrainConfig) -> NetworkConfig:

@@ -22,12 +22,13 @@ from omegaconf import OmegaConf
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictSequential
 from torchrl.collectors import Collector
-from torchrl.envs import EnvBase
+from torchrl.envs import EnvBase, TransformedEnv
 from tqdm import tqdm
 
 from rlhc.builders import (
     EPISODE_REWARD,
     Layout,
+    group_names,
     make_agents,
     make_training_env,
     validate,
@@ -41,6 +42,7 @@ from rlhc.checkpoint import (
 )
 from rlhc.config import TrainConfig
 from rlhc.envs import make_env
+from rlhc.envs.base import BatchedGame
 from rlhc.loggers import MetricLogger
 
 #: Loss-output entries summed into the objective that is minimised.
@@ -72,6 +74,10 @@ class Trainer:
     Args:
         cfg: a validated training config.
         run_dir: where ``metrics.csv``, TensorBoard files and checkpoints go.
+        env: the collection env; ``None`` builds the batched game of ``cfg.env``. Another
+            env (e.g. TorchRL's ``PettingZooWrapper`` route, for benchmarks) must follow
+            the same TensorDict contract, with episode returns and observation norm from
+            :func:`~rlhc.builders.with_training_transforms`.
 
     Examples:
         >>> from hydra import compose, initialize_config_dir  # doctest: +SKIP
@@ -79,7 +85,7 @@ class Trainer:
         >>> trainer.train()  # doctest: +SKIP
     """
 
-    def __init__(self, cfg: TrainConfig, run_dir: Path) -> None:
+    def __init__(self, cfg: TrainConfig, run_dir: Path, env: TransformedEnv | None = None) -> None:
         validate(cfg)
         self.cfg = cfg
         self.run_dir = run_dir
@@ -94,8 +100,10 @@ class Trainer:
             )
         seed_everything(cfg.seed)
 
-        self.env = make_training_env(cfg, self.layout.num_envs, cfg.seed)
-        self.groups = list(self.env.base_env.game.groups)
+        self.env = (
+            env if env is not None else make_training_env(cfg, self.layout.num_envs, cfg.seed)
+        )
+        self.groups = group_names(self.env)
         self.actors, self.losses = make_agents(cfg, self.env)
         self.policy = TensorDictSequential(*self.actors.values())
         self.optimizer = torch.optim.Adam(self._parameters(), lr=cfg.algo.lr)
@@ -216,8 +224,8 @@ class Trainer:
         episodes["episode_length"].append(batch["next", "step_count"][done].float().flatten())
         for group in self.groups:
             # [episodes, n_g, 1] → one number per episode: the group's mean return.
-            returns = batch["next", group.name, EPISODE_REWARD][done].float()
-            episodes[f"{group.name}/cumulative_reward"].append(returns.mean(dim=(-2, -1)))
+            returns = batch["next", group, EPISODE_REWARD][done].float()
+            episodes[f"{group}/cumulative_reward"].append(returns.mean(dim=(-2, -1)))
 
     def _summarise(
         self, summary: dict[str, list[float]], episodes: dict[str, list[torch.Tensor]]
@@ -271,7 +279,7 @@ class Trainer:
             "losses": {g: loss.state_dict() for g, loss in self.losses.items()},
             "optimizer": self.optimizer.state_dict(),
             "env_transform": self.env.transform.state_dict(),
-            "game_rng": self.env.base_env.game.rng.bit_generator.state,
+            "game_rng": self._game.rng.bit_generator.state if self._game else None,
             "rng": rng_states(),
         }
 
@@ -285,13 +293,19 @@ class Trainer:
             loss.load_state_dict(state["losses"][group])
         self.optimizer.load_state_dict(state["optimizer"])
         self.env.transform.load_state_dict(state["env_transform"])
-        self.env.base_env.game.rng.bit_generator.state = state["game_rng"]
+        if self._game is not None and state["game_rng"] is not None:
+            self._game.rng.bit_generator.state = state["game_rng"]
         set_rng_states(state["rng"])
         self.frames = int(state["frames"])
         self.iteration = int(state["iteration"])
         self.wall_time = float(state["wall_time"])
 
     # --- helpers --------------------------------------------------------------------
+    @property
+    def _game(self) -> BatchedGame | None:
+        """The numpy game behind the env (``None`` for an env of another kind)."""
+        return getattr(self.env.base_env, "game", None)
+
     def _parameters(self) -> list[torch.nn.Parameter]:
         """The trainable parameters of every group's loss (actor + both critics), once each."""
         seen: dict[int, torch.nn.Parameter] = {}

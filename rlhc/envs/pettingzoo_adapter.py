@@ -8,6 +8,7 @@ TorchRL adapter instead (one Python round-trip per world-step here).
 | ``observations[agent]`` | the worker observation, ``float32 [d_w]`` |
 | ``infos[agent]["manager_observation"]`` | the manager observation, ``float32 [d_m]`` |
 | ``infos[agent]["team"]`` | the agent's team (0 or 1) |
+| ``infos[agent]["scoring_team"]`` | the team that won the point/goal this step, -1 if none (-1 at reset) |
 | ``action_space(agent)`` | ``Box(low, high, (size,))`` (clipped) or ``Discrete(n)`` |
 | ``state()`` / ``state_space`` | the full world, absolute frame |
 
@@ -131,9 +132,7 @@ class BatchedGameParallelEnv(ParallelEnv):
             agent: float(outcome.rewards[spec.name][0, i])
             for agent, (spec, i) in self._where.items()
         }
-        observations, infos = self._observe()
-        for agent in self.agents:
-            infos[agent]["scoring_team"] = int(outcome.scoring_team[0])
+        observations, infos = self._observe(int(outcome.scoring_team[0]))
         terminations = dict.fromkeys(self.agents, terminated)
         truncations = dict.fromkeys(self.agents, truncated)
         if terminated or truncated:
@@ -175,7 +174,11 @@ class BatchedGameParallelEnv(ParallelEnv):
             raise ValueError(f"unknown agent {agent!r}; agents are {self.possible_agents}")
         return self._where[agent]
 
-    def _observe(self) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+    def _observe(
+        self, scoring_team: int = -1
+    ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+        """Observations and infos; the info keys are the same at reset and at every step
+        (wrappers such as TorchRL's ``PettingZooWrapper`` size their specs from reset)."""
         group_observations = self.game.observe()
         observations: dict[str, np.ndarray] = {}
         infos: dict[str, dict[str, Any]] = {}
@@ -185,5 +188,6 @@ class BatchedGameParallelEnv(ParallelEnv):
             infos[agent] = {
                 "manager_observation": seen.manager_observation[0, i].copy(),
                 "team": spec.teams[i],
+                "scoring_team": scoring_team,
             }
         return observations, infos

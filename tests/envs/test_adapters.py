@@ -230,3 +230,18 @@ def test_pettingzoo_wraps_discrete_games_and_one_world_only() -> None:
     assert env.action_space("b_0").n == 4
     with pytest.raises(ValueError, match="one world"):
         BatchedGameParallelEnv(make_game("tennis", num_envs=2))
+
+
+@pytest.mark.parametrize("game", ["tennis", "soccer"])
+def test_torchrl_pettingzoo_wrapper_accepts_the_parallel_env(game: str) -> None:
+    """Info keys are the same at reset and step, so TorchRL's wrapper sizes its specs."""
+    import importlib
+
+    from torchrl.envs import PettingZooWrapper
+
+    module = importlib.import_module(f"rlhc.envs.{game}")
+    env = PettingZooWrapper(module.parallel_env(max_cycles=5), use_mask=True)
+    rollout = env.rollout(3)
+    group = "racket" if game == "tennis" else "striker"
+    assert rollout[group, "info", "manager_observation"].shape[-1] in (10, 200)
+    assert (rollout["next", group, "info", "scoring_team"] == -1).all()
