@@ -33,7 +33,9 @@ def game_class(name: str) -> type[BatchedGame]:
     return getattr(importlib.import_module(module_name), class_name)
 
 
-def make_game(name: str, num_envs: int = 1, seed: int | None = None, **env_options: Any) -> BatchedGame:
+def make_game(
+    name: str, num_envs: int = 1, seed: int | None = None, **env_options: Any
+) -> BatchedGame:
     """Build the numpy game ``name`` with ``num_envs`` worlds (options are the game's)."""
     return game_class(name)(num_worlds=num_envs, seed=seed, **env_options)
 
