@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import csv
-import importlib.util
 import math
 import sys
 from pathlib import Path
@@ -11,22 +10,28 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rlhc.evaluation.stats import welch_t_test, wilson_interval
+from rlhc.evaluation.matches import MatchResult
+from rlhc.evaluation.stats import t_interval, welch_t_test, wilson_interval
 from rlhc.plotting import ema_smooth
 
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
-
-
-@pytest.fixture(scope="module")
-def report():
-    sys.path.insert(0, str(BENCHMARKS))
-    spec = importlib.util.spec_from_file_location("report", BENCHMARKS / "report.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["report"] = module  # dataclasses look their module up while building
-    spec.loader.exec_module(module)
-    return module
-
+# ``reporting`` and the ``reproduce`` script it reads the plan from live in benchmarks/.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import report as report_cli
+from reporting.document import command_line
+from reporting.formatting import fmt, fmt_interval, fmt_reach, table
+from reporting.head_to_head import Record, match_verdict, pooled, record_of
+from reporting.markdown import runs_section
+from reporting.runs import complete_runs, discover
+from reporting.statistics import (
+    Comparison,
+    config_finals,
+    fill_reach,
+    initial_value,
+    smoothed_final,
+    steps_to_reach,
+    threshold,
+)
+from reporting.study import STUDIES
 
 STUDY = {"toy": ({"ppo": ("env=tennis", "critic=ppo"), "hierarchical": ("env=tennis",)}, 3, 100)}
 
@@ -69,8 +74,8 @@ def fake_frames(path: Path) -> int | None:
     return int(metrics.read_text().strip().splitlines()[-1].split(",")[0])
 
 
-def test_discover_marks_complete_and_unfinished_runs(report, results: Path) -> None:
-    runs = report.discover(results, STUDY, fake_frames)
+def test_discover_marks_complete_and_unfinished_runs(results: Path) -> None:
+    runs = discover(results, STUDY, fake_frames)
     status = {(r.config, r.seed): (r.complete, r.frames) for r in runs}
     assert status == {
         ("ppo", 0): (True, 100),
@@ -80,35 +85,35 @@ def test_discover_marks_complete_and_unfinished_runs(report, results: Path) -> N
         ("hierarchical", 1): (True, 100),
         ("hierarchical", 2): (False, 30),
     }
-    assert [r.seed for r in report.complete_runs(runs, "toy/hierarchical")] == [0, 1]
+    assert [r.seed for r in complete_runs(runs, "toy/hierarchical")] == [0, 1]
 
 
-def test_smoothed_final_is_the_last_tenth_of_the_ema_curve(report, results: Path) -> None:
-    run = report.discover(results, STUDY, fake_frames)[0].curves()
+def test_smoothed_final_is_the_last_tenth_of_the_ema_curve(results: Path) -> None:
+    run = discover(results, STUDY, fake_frames)[0].curves()
     curve = ema_smooth(np.array([0.1 * i for i in range(10)]), 0.8)
     # steps 10..100: the last 10% is step >= 90, i.e. the last two points.
     expected = curve[-2:].mean()
-    assert report.smoothed_final(run, "racket/cumulative_reward") == pytest.approx(expected)
-    assert report.smoothed_final(run, "not/logged") is None
-    assert report.initial_value(run, "racket/cumulative_reward") == 0.0
+    assert smoothed_final(run, "racket/cumulative_reward") == pytest.approx(expected)
+    assert smoothed_final(run, "not/logged") is None
+    assert initial_value(run, "racket/cumulative_reward") == 0.0
 
 
-def test_threshold_and_steps_to_reach(report) -> None:
-    assert report.threshold(0.0, 2.0, 0.5) == 1.0
-    assert report.threshold(-1.0, 1.0, 0.25) == -0.5
+def test_threshold_and_steps_to_reach() -> None:
+    assert threshold(0.0, 2.0, 0.5) == 1.0
+    assert threshold(-1.0, 1.0, 0.25) == -0.5
     steps = np.array([10.0, 20.0, 30.0])
-    assert report.steps_to_reach(steps, np.array([0.0, 0.6, 0.4]), 0.5) == 20.0
-    assert report.steps_to_reach(steps, np.array([0.0, 0.1, 0.2]), 0.5) is None
+    assert steps_to_reach(steps, np.array([0.0, 0.6, 0.4]), 0.5) == 20.0
+    assert steps_to_reach(steps, np.array([0.0, 0.1, 0.2]), 0.5) is None
 
 
-def test_finals_table_threshold_and_reach(report, results: Path) -> None:
-    runs = report.discover(results, STUDY, fake_frames)
+def test_finals_table_threshold_and_reach(results: Path) -> None:
+    runs = discover(results, STUDY, fake_frames)
     tables = [
-        report.config_finals(name, report.complete_runs(runs, name), "racket")
+        config_finals(name, complete_runs(runs, name), "racket")
         for name in ("toy/hierarchical", "toy/ppo")
     ]
     assert [t.seeds for t in tables] == [[0, 1], [0, 1]]
-    level = report.fill_reach(tables, runs, "racket", 0.5)
+    level = fill_reach(tables, runs, "racket", 0.5)
     initial = np.mean([0.0, 0.05, 0.0, 0.1])
     assert level == pytest.approx(initial + 0.5 * (np.mean(tables[0].reward) - initial))
     for finals in tables:
@@ -120,61 +125,82 @@ def test_finals_table_threshold_and_reach(report, results: Path) -> None:
     assert tables[0].reach[0] is not None  # the steeper config gets there
 
 
-def test_no_threshold_when_nothing_improves(report, tmp_path: Path) -> None:
+def test_no_threshold_when_nothing_improves(tmp_path: Path) -> None:
     write_run(tmp_path, "ppo", 0, [1.0, 0.5, 0.0] * 3 + [0.0])
-    runs = report.discover(tmp_path, {"toy": ({"ppo": ()}, 1, 100)}, fake_frames)
-    tables = [report.config_finals("toy/ppo", runs, "racket")]
-    assert report.fill_reach(tables, runs, "racket", 0.5) is None
+    runs = discover(tmp_path, {"toy": ({"ppo": ()}, 1, 100)}, fake_frames)
+    tables = [config_finals("toy/ppo", runs, "racket")]
+    assert fill_reach(tables, runs, "racket", 0.5) is None
     assert tables[0].reach == [None]
 
 
-def test_comparison_uses_per_seed_values_and_words_the_result(report) -> None:
-    higher = report.Comparison("a", "b", "racket", (1.0, 1.1, 0.9), (0.0, 0.1, -0.1))
+def test_comparison_uses_per_seed_values_and_words_the_result() -> None:
+    higher = Comparison("a", "b", "racket", (1.0, 1.1, 0.9), (0.0, 0.1, -0.1))
     t, p = welch_t_test([1.0, 1.1, 0.9], [0.0, 0.1, -0.1])
     assert higher.test() == (t, p)
     assert (
         "`a`'s racket final cumulative reward is higher than `b`'s" in higher.verdict()
         and f"p = {p:.3g}" in higher.verdict()
     )
-    lower = report.Comparison("a", "b", "racket", (0.0, 0.1, -0.1), (1.0, 1.1, 0.9))
+    lower = Comparison("a", "b", "racket", (0.0, 0.1, -0.1), (1.0, 1.1, 0.9))
     assert "is lower than `b`'s" in lower.verdict()
-    same = report.Comparison("a", "b", "racket", (0.0, 1.0), (0.1, 0.9))
+    same = Comparison("a", "b", "racket", (0.0, 1.0), (0.1, 0.9))
     assert "not significantly different" in same.verdict()
-    single = report.Comparison("a", "b", "racket", (0.5,), (0.1, 0.2))
+    single = Comparison("a", "b", "racket", (0.5,), (0.1, 0.2))
     assert single.test() is None and "not testable yet" in single.verdict()
 
 
-def test_records_pool_and_rate_with_wilson(report) -> None:
-    record = report.record_of(np.array([1, 1, 0, -1]))
-    assert record == report.Record(2, 1, 1) and record.score == pytest.approx(0.625)
-    total = report.pooled([record, report.Record(1, 0, 3)])
-    assert total == report.Record(3, 1, 4) and total.matches == 8
+def test_records_pool_and_rate_with_wilson() -> None:
+    result = MatchResult(
+        "home",
+        "away",
+        home_side=np.array([0, 1, 0, 1]),
+        home_points=np.array([5, 5, 2, 1]),
+        away_points=np.array([3, 0, 2, 5]),
+        steps=np.array([90, 80, 300, 70]),
+    )
+    record = record_of(result.summary())  # outcomes +1, +1, 0, -1
+    assert record == Record(2, 1, 1) and record.score == pytest.approx(0.625)
+    total = pooled([record, Record(1, 0, 3)])
+    assert total == Record(3, 1, 4) and total.matches == 8
     low, high = wilson_interval(3, 8)
     assert total.rate(3) == f"{3 / 8:.1%} [{low:.1%}, {high:.1%}]"
-    assert report.Record(0, 0, 0).rate(0) == "—"
-    assert "scores higher" in report.match_verdict("x", report.Record(90, 0, 10))
-    assert "scores lower" in report.match_verdict("x", report.Record(10, 0, 90))
-    assert "not distinguishable" in report.match_verdict("x", report.Record(5, 1, 4))
-    assert "no matches" in report.match_verdict("x", report.Record(0, 0, 0))
+    assert Record(0, 0, 0).rate(0) == "—"
+    assert "scores higher" in match_verdict("x", Record(90, 0, 10))
+    assert "scores lower" in match_verdict("x", Record(10, 0, 90))
+    assert "not distinguishable" in match_verdict("x", Record(5, 1, 4))
+    assert "no matches" in match_verdict("x", Record(0, 0, 0))
 
 
-def test_formatting(report) -> None:
-    ci = report.t_interval([1.0, 2.0, 3.0])
-    assert report.fmt_interval(ci, 2, fixed=True) == "2.00 [-0.48, 4.48]"
-    assert "no interval" in report.fmt_interval(report.t_interval([1.0]))
-    assert report.fmt(math.nan) == "—" and report.fmt(None) == "—"
-    assert report.fmt_reach([10.0, None, 30.0]) == "20 (2/3 seeds)"
-    assert report.table(["a", "b"], [["1", "2"]]) == ["| a | b |", "|---|---|", "| 1 | 2 |"]
+def test_formatting() -> None:
+    ci = t_interval([1.0, 2.0, 3.0])
+    assert fmt_interval(ci, 2, fixed=True) == "2.00 [-0.48, 4.48]"
+    assert "no interval" in fmt_interval(t_interval([1.0]))
+    assert fmt(math.nan) == "—" and fmt(None) == "—"
+    assert fmt_reach([10.0, None, 30.0]) == "20 (2/3 seeds)"
+    assert table(["a", "b"], [["1", "2"]]) == ["| a | b |", "|---|---|", "| 1 | 2 |"]
 
 
-def test_runs_section_lists_unfinished_runs_and_wall_time(report, results: Path) -> None:
-    runs = report.discover(results, STUDY, fake_frames)
-    report.STUDIES["toy"] = STUDY["toy"]
+def test_runs_section_lists_unfinished_runs_and_wall_time(results: Path) -> None:
+    runs = discover(results, STUDY, fake_frames)
+    STUDIES["toy"] = STUDY["toy"]
     try:
-        text = "\n".join(report.runs_section(runs, ["toy"]))
+        text = "\n".join(runs_section(runs, ["toy"]))
     finally:
-        del report.STUDIES["toy"]
+        del STUDIES["toy"]
     assert "2 of 3" in text
     assert "seed 2 (no checkpoint yet)" in text and "seed 2 (30 frames)" in text
     assert "50 [50, 50]" in text  # wall_time of the last row, identical for both seeds
     assert "Total training wall time of the 4 complete runs: 200 s" in text
+
+
+def test_cli_draws_figures_next_to_out_and_names_the_default_command(tmp_path: Path) -> None:
+    default = report_cli.parse_args([])
+    assert default.images == report_cli.ROOT / "docs" / "images"
+    elsewhere = report_cli.parse_args(["--out", str(tmp_path / "r.md"), "--matches", "0"])
+    assert elsewhere.images == tmp_path / "images"  # never docs/images
+    given = report_cli.parse_args(["--out", str(tmp_path / "r.md"), "--images", "figs"])
+    assert given.images == Path("figs")
+    assert command_line(default) == "python benchmarks/report.py --matches 100"
+    assert command_line(report_cli.parse_args(["--matches", "0", "--study", "tennis"])) == (
+        "python benchmarks/report.py --matches 0 --study tennis"
+    )

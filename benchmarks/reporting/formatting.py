@@ -1,0 +1,45 @@
+"""Numbers, intervals and tables as the text of ``RESULTS.md``."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from rlhc.evaluation.stats import MeanInterval
+
+
+def fmt(value: float | None, digits: int = 4, fixed: bool = False) -> str:
+    """``digits`` decimals (significant digits for tiny values unless ``fixed``)."""
+    if value is None or not math.isfinite(value):
+        return "—"
+    if fixed:
+        return f"{value:,.{digits}f}"
+    return f"{value:.{digits}g}" if abs(value) < 1e-3 and value != 0 else f"{value:.{digits}f}"
+
+
+def fmt_interval(ci: MeanInterval, digits: int = 4, fixed: bool = False) -> str:
+    """``mean [low, high]`` (a single value has no interval)."""
+    if ci.n == 0:
+        return "—"
+    if ci.n == 1:
+        return f"{fmt(ci.mean, digits, fixed)} (n=1, no interval)"
+    low, high = fmt(ci.low, digits, fixed), fmt(ci.high, digits, fixed)
+    return f"{fmt(ci.mean, digits, fixed)} [{low}, {high}]"
+
+
+def fmt_reach(reach: Sequence[float | None]) -> str:
+    """Mean steps of the seeds that reached a threshold, and how many did."""
+    hits = [r for r in reach if r is not None]
+    if not reach:
+        return "—"
+    mean = f"{np.mean(hits):,.0f}" if hits else "—"
+    return f"{mean} ({len(hits)}/{len(reach)} seeds)"
+
+
+def table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
+    """A Markdown table."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return lines

@@ -1,0 +1,198 @@
+"""The sections of ``RESULTS.md`` on the runs, their settings and their finals.
+
+Each function returns the section's Markdown lines; :mod:`reporting.document` puts
+them together. The matches' section is :func:`reporting.head_to_head.matches_section`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from rlhc.evaluation.stats import t_interval
+
+from .formatting import fmt, fmt_interval, fmt_reach, table
+from .runs import StudyRun, complete_runs, config_drift, wall_time
+from .statistics import Comparison, ConfigFinals, config_finals, fill_reach, finite
+from .study import GROUPS, SMOOTHING, STUDIES, comparisons_of, study_env, table_configs
+
+#: Table 3 of the paper: recorded config key -> its row label.
+SETTINGS = (
+    ("algo.batch_size", "batch size"),
+    ("algo.buffer_size", "buffer size"),
+    ("algo.time_horizon", "time horizon"),
+    ("algo.gamma", "gamma"),
+    ("algo.lmbda", "lambda"),
+    ("algo.max_steps", "max steps"),
+    ("algo.normalize_observations", "normalise obs"),
+    ("model.num_layers", "layers"),
+    ("model.hidden_size", "hidden units"),
+    ("algo.lr", "learning rate"),
+    ("algo.entropy_coef", "beta (entropy)"),
+    ("algo.clip_epsilon", "epsilon (clip)"),
+    ("algo.epochs", "epochs"),
+    ("logger.summary_freq", "summary freq"),
+    ("env.num_envs", "worlds per env (null: buffer / horizon)"),
+    ("threads", "torch threads per run"),
+)
+
+
+def runs_section(runs: Sequence[StudyRun], studies: Sequence[str]) -> list[str]:
+    """Which runs exist, which are complete, and their wall time."""
+    rows = []
+    for study in studies:
+        configs, planned, max_steps = STUDIES[study]
+        for config, overrides in configs.items():
+            mine = [r for r in runs if r.study == study and r.config == config]
+            done = [r for r in mine if r.complete]
+            partial = [
+                f"seed {r.seed} ({f'{r.frames:,} frames' if r.frames else 'no checkpoint yet'})"
+                for r in mine
+                if not r.complete
+            ]
+            frames = sorted({r.frames for r in done if r.frames is not None})
+            times = [wall_time(r) for r in done]
+            rows.append(
+                [
+                    f"`{study}/{config}`",
+                    "`" + " ".join(overrides) + "`",
+                    f"{max_steps:,}",
+                    ", ".join(f"{f:,}" for f in frames) or "—",
+                    f"{len(done)} of {planned}",
+                    ", ".join(str(r.seed) for r in done) or "—",
+                    "; ".join(partial) or "—",
+                    fmt_interval(t_interval([t for t in times if math.isfinite(t)]), 0, fixed=True),
+                ]
+            )
+    header = [
+        "config",
+        "overrides",
+        "max steps",
+        "frames trained (complete runs)",
+        "complete seeds",
+        "seeds",
+        "unfinished (excluded)",
+        "wall time per run, s",
+    ]
+    total = sum(wall_time(r) for r in runs if r.complete)
+    return [
+        *table(header, rows),
+        "",
+        f"Total training wall time of the {sum(r.complete for r in runs)} complete runs: "
+        f"{total:,.0f} s ({total / 3600:.2f} h, summed over runs, which trained concurrently). "
+        "Wall time is the trainer's `wall_time` in the last row of `metrics.csv` "
+        "(collection + updates, carried across resumes).",
+    ]
+
+
+def settings_section(runs: Sequence[StudyRun]) -> list[str]:
+    """Table 3 values as the complete runs' configs recorded them, per game."""
+    by_env: dict[str, dict[str, Any]] = {}
+    for run in runs:
+        if run.complete:
+            config = run.curves().config
+            by_env.setdefault(str(config.get("env.name")), config)
+    if not by_env:
+        return ["No complete run yet."]
+    games = sorted(by_env)
+    rows = [[label] + [f"`{by_env[g].get(key)}`" for g in games] for key, label in SETTINGS]
+    return table(["setting", *games], rows)
+
+
+def drift_lines(runs: Sequence[StudyRun]) -> list[str]:
+    """The notes of :func:`reporting.runs.config_drift`, or that there are none."""
+    notes = config_drift(runs)
+    if not notes:
+        return ["Every seed of a configuration recorded the same config (seed aside).", ""]
+    return [
+        "Recorded configs that differ between seeds of one configuration (the code changed "
+        "while the study ran; *absent*: the key did not exist when that run started):",
+        "",
+        *[f"- {note}" for note in notes],
+        "",
+    ]
+
+
+def speed_verdict(rlhc: ConfigFinals, ppo: ConfigFinals, group: str, level: float | None) -> str:
+    """A neutral sentence on the steps each configuration took to reach the threshold."""
+    if level is None:
+        return f"`{rlhc.name}` vs `{ppo.name}`, {group}: no steps-to-threshold (no threshold)."
+    return (
+        f"`{rlhc.name}` vs `{ppo.name}`, {group} steps to reach {fmt(level)}: "
+        f"{fmt_reach(rlhc.reach)} vs {fmt_reach(ppo.reach)} (no test; descriptive)."
+    )
+
+
+def finals_section(
+    study: str, runs: Sequence[StudyRun], fraction: float
+) -> tuple[list[str], list[Comparison], list[str]]:
+    """Per group: the finals table, Welch's tests and steps-to-threshold sentences."""
+    lines: list[str] = []
+    comparisons: list[Comparison] = []
+    speed: list[str] = []
+    for group in GROUPS[study_env(study)]:
+        tables = [
+            config_finals(name, complete_runs(runs, name), group) for name in table_configs(study)
+        ]
+        level = fill_reach(tables, runs, group, fraction)
+        rows = [
+            [
+                f"`{c.name}`",
+                str(len(c.seeds)),
+                fmt_interval(t_interval(c.reward)),
+                fmt_reach(c.reach),
+                fmt_interval(t_interval(finite(c.episode_length)), 3),
+                fmt_interval(t_interval(finite(c.entropy)), 3),
+            ]
+            for c in tables
+        ]
+        header = [
+            "config",
+            "seeds",
+            f"final `{group}/cumulative_reward`",
+            "steps to threshold (mean of seeds that reached it)",
+            "final episode length",
+            f"final `{group}/entropy`",
+        ]
+        where = (
+            f"threshold {fmt(level)} ({fraction:.0%} of the way from the mean initial value "
+            "of all runs in this table to the best configuration's mean final value)"
+            if level is not None
+            else "no threshold: no configuration's mean final value is above the mean initial value"
+        )
+        lines += [f"**{group}** — {where}.", "", *table(header, rows), ""]
+        by_name = {c.name: c for c in tables}
+        for rlhc, ppo in comparisons_of(study):
+            a, b = by_name[rlhc], by_name[ppo]
+            comparisons.append(Comparison(rlhc, ppo, group, tuple(a.reward), tuple(b.reward)))
+            speed.append(speed_verdict(a, b, group, level))
+    rows = []
+    for c in comparisons:
+        result = c.test()
+        diff = (
+            float(np.mean(c.rlhc_values) - np.mean(c.ppo_values))
+            if c.rlhc_values and c.ppo_values
+            else math.nan
+        )
+        rows.append(
+            [
+                f"`{c.rlhc}` vs `{c.ppo}`",
+                c.group,
+                f"{len(c.rlhc_values)} vs {len(c.ppo_values)}",
+                fmt(diff),
+                f"{result[0]:.3f}" if result else "—",
+                f"{result[1]:.3g}" if result else "— (needs ≥ 2 seeds per side)",
+            ]
+        )
+    lines += [
+        "Welch's t-test (two-sided, unequal variances), first config vs second (RLHC vs PPO; "
+        "for the extensions, each extension vs tennis PPO and RLHC). Samples: one value "
+        "per completed seed — the mean of the last 10% (by steps) of that run's "
+        f"TensorBoard-smoothed (EMA {SMOOTHING}) `<group>/cumulative_reward` curve.",
+        "",
+        *table(["first vs second", "group", "seeds", "mean difference", "t", "p"], rows),
+    ]
+    return lines, comparisons, speed
