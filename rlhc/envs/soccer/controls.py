@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from rlhc.envs.soccer.config import SoccerOptions
-from rlhc.envs.soccer.physics import BALL, NUM_PLAYERS
+from rlhc.envs.soccer.physics import BALL, NUM_PLAYERS, facing_vectors
 
 STRIKER_ACTIONS: tuple[str, ...] = (
     "forward",
@@ -98,7 +98,7 @@ class Controls:
         motion = np.concatenate(
             [self.striker_motion[striker_actions], self.goalie_motion[goalie_actions]], axis=1
         )  # [N, 4, 3], players in body order
-        facing = np.stack([np.cos(angles[:, :NUM_PLAYERS]), np.sin(angles[:, :NUM_PLAYERS])], -1)
+        facing = facing_vectors(angles)
         left = np.stack([-facing[..., 1], facing[..., 0]], axis=-1)
         new_velocities = np.empty_like(velocities)
         new_velocities[:, :NUM_PLAYERS] = motion[..., 0:1] * facing + motion[..., 1:2] * left

@@ -55,6 +55,7 @@ from rlhc.envs.soccer.physics import (
     PLAYER_NAMES,
     PitchGeometry,
     SoccerPhysics,
+    facing_vectors,
 )
 from rlhc.envs.soccer.rules import ROLE_BODIES, kickoff, rewards, scoring_team
 
@@ -235,8 +236,7 @@ class SoccerGame(BatchedGame):
             [
                 physics.positions[:, :NUM_PLAYERS],
                 physics.velocities[:, :NUM_PLAYERS],
-                np.cos(physics.angles[:, :NUM_PLAYERS, None]),
-                np.sin(physics.angles[:, :NUM_PLAYERS, None]),
+                facing_vectors(physics.angles),
             ],
             axis=-1,
         )
