@@ -104,11 +104,12 @@ def with_training_transforms(cfg: TrainConfig, base: EnvBase) -> TransformedEnv:
         keys = [(g, key) for g in groups for key in ("observation", "manager_observation")]
         # Statistics are shared by the worlds (reduce_batch_dims) and kept per agent slot;
         # with mirrored observations and a shared policy both teams' slots converge alike.
-        with warnings.catch_warnings():
-            # "experimental for batched containers": the batched path is the one we test.
-            warnings.filterwarnings("ignore", "Support of VecNormV2", UserWarning)
-            transforms.append(VecNormV2(in_keys=keys, decay=0.99999, reduce_batch_dims=True))
-    return TransformedEnv(base, Compose(*transforms))
+        transforms.append(VecNormV2(in_keys=keys, decay=0.99999, reduce_batch_dims=True))
+    with warnings.catch_warnings():
+        # VecNormV2 calls batched containers "experimental": the batched path is the one
+        # this project runs and tests (tests/test_train.py, tests/evaluation).
+        warnings.filterwarnings("ignore", "Support of VecNormV2", UserWarning)
+        return TransformedEnv(base, Compose(*transforms))
 
 
 def group_names(env: EnvBase) -> list[str]:
