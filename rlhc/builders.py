@@ -13,10 +13,10 @@ from dataclasses import dataclass
 import torch
 from torchrl.envs import Compose, EnvBase, RewardSum, TransformedEnv, VecNormV2
 
-from rlhc.config import FUSIONS, TrainConfig
+from rlhc.config import TrainConfig
 from rlhc.envs import make_env
 from rlhc.modules import NetworkConfig, make_actor, make_manager_critic, make_worker_critic
-from rlhc.objectives import HierarchicalPPOLoss, make_ppo_loss
+from rlhc.objectives import FUSIONS, HierarchicalPPOLoss, make_ppo_loss
 
 EPISODE_REWARD = "episode_reward"
 MODEL_KINDS = ("mlp", "lstm")

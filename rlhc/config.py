@@ -16,8 +16,6 @@ from omegaconf import MISSING
 
 from rlhc.envs.config import SoccerEnvConfig, TennisEnvConfig
 
-FUSIONS = ("local", "manager", "max", "mean", "weighted")
-
 
 @dataclass
 class CriticConfig:

@@ -13,17 +13,16 @@ Examples:
 
 from __future__ import annotations
 
-import random
 from pathlib import Path
 
 import hydra
-import numpy as np
 import torch
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
 from rlhc.evaluation.commands import run_elo, run_match
 from rlhc.evaluation.config import EvaluateConfig, register_evaluate_configs, validate_evaluate
+from rlhc.trainer import seed_everything
 
 register_evaluate_configs()
 
@@ -35,9 +34,7 @@ def main(cfg: DictConfig) -> float:
     validate_evaluate(eval_cfg)
     if eval_cfg.threads > 0:
         torch.set_num_threads(eval_cfg.threads)
-    random.seed(eval_cfg.seed)
-    np.random.seed(eval_cfg.seed)
-    torch.manual_seed(eval_cfg.seed)
+    seed_everything(eval_cfg.seed)
     out_dir = Path(HydraConfig.get().runtime.output_dir)
     if eval_cfg.mode == "elo":
         return run_elo(eval_cfg, out_dir).standings()[0][1]

@@ -8,6 +8,7 @@ policy (symmetric self-play).
 
 from __future__ import annotations
 
+import copy
 import math
 import random
 import sys
@@ -44,9 +45,8 @@ from rlhc.config import TrainConfig
 from rlhc.envs import make_env
 from rlhc.envs.base import BatchedGame
 from rlhc.loggers import MetricLogger
+from rlhc.objectives import LOSS_KEYS
 
-#: Loss-output entries summed into the objective that is minimised.
-LOSS_TERMS = ("loss_objective", "loss_critic", "loss_entropy")
 #: Loss-output diagnostics averaged over minibatches and logged per group.
 LOSS_DIAGNOSTICS = (
     "loss_objective",
@@ -107,7 +107,8 @@ class Trainer:
         self.actors, self.losses = make_agents(cfg, self.env)
         self.policy = TensorDictSequential(*self.actors.values())
         # fused: one kernel over all parameters (on CPU too), ~9% of a soccer update.
-        self.optimizer = torch.optim.Adam(self._parameters(), lr=cfg.algo.lr, fused=True)
+        self.parameters = self._parameters()
+        self.optimizer = torch.optim.Adam(self.parameters, lr=cfg.algo.lr, fused=True)
 
         self._eval_env: EnvBase | None = None
         self.frames = 0
@@ -203,13 +204,13 @@ class Trainer:
                 total = torch.zeros(())
                 for group, loss in self.losses.items():
                     out = loss(minibatch)
-                    total = total + sum(out[term] for term in LOSS_TERMS)
+                    total = total + sum(out[term] for term in LOSS_KEYS)
                     for key in LOSS_DIAGNOSTICS:
                         if key in out:
                             stats[f"{group}/{key}"].append(out[key].detach().float().mean().item())
                 self.optimizer.zero_grad(set_to_none=True)
                 total.backward()
-                grad_norm = torch.nn.utils.clip_grad_norm_(self._parameters(), algo.max_grad_norm)
+                grad_norm = torch.nn.utils.clip_grad_norm_(self.parameters, algo.max_grad_norm)
                 stats["grad_norm"].append(grad_norm.item())
                 self.optimizer.step()
         return {name: float(np.mean(values)) for name, values in stats.items()}
@@ -251,7 +252,7 @@ class Trainer:
     def evaluate(self) -> dict[str, float]:
         """Win/draw rates of the current policy (mode actions) against the scripted team."""
         from rlhc.evaluation.matches import evaluate_against
-        from rlhc.evaluation.policies import restore_policy
+        from rlhc.evaluation.policies import RestoredPolicy, normaliser_statistics
 
         if self._eval_env is None:
             self._eval_env = make_env(
@@ -260,7 +261,9 @@ class Trainer:
                 seed=self.cfg.seed + 1,
                 **self.cfg.env.game_options(),
             )
-        policy = restore_policy(self.state(), self._eval_env)
+        # The live actors, copied, behind a frozen copy of the running normaliser.
+        actors = {g: copy.deepcopy(actor).eval() for g, actor in self.actors.items()}
+        policy = RestoredPolicy(actors, *normaliser_statistics(self.env.transform, actors))
         result = evaluate_against(policy, "scripted", self._eval_env, self.cfg.eval_matches)
         return {
             "eval/win_rate": float(result["win_rate"]),

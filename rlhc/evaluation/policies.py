@@ -12,14 +12,14 @@ place that defines them.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import torch
 from omegaconf import OmegaConf
 from tensordict import TensorDictBase
-from torchrl.envs import EnvBase, VecNormV2
+from torchrl.envs import EnvBase, Transform, VecNormV2
 
 from rlhc.builders import make_training_env, network_config
 from rlhc.config import TrainConfig
@@ -111,10 +111,23 @@ def restore_policy(state: Mapping[str, Any], env: EnvBase) -> RestoredPolicy:
     if cfg.algo.normalize_observations:
         training_env = make_training_env(cfg, num_envs=1, seed=0)
         training_env.transform.load_state_dict(state["env_transform"])
-        normaliser = next(t for t in training_env.transform if isinstance(t, VecNormV2))
-        # Statistics that never saw data (a checkpoint saved before the first step) have
-        # a zero bias correction and come out NaN: leave those entries unnormalised.
-        loc = {g: normaliser.loc[g, "observation"].nan_to_num(0.0) for g in actors}
-        scale = {g: normaliser.scale[g, "observation"].nan_to_num(1.0, posinf=1.0) for g in actors}
+        loc, scale = normaliser_statistics(training_env.transform, actors)
         training_env.close()
     return RestoredPolicy(actors, loc, scale)
+
+
+def normaliser_statistics(
+    transform: Transform, groups: Iterable[str]
+) -> tuple[dict[str, torch.Tensor] | None, dict[str, torch.Tensor] | None]:
+    """Copies of the worker-observation ``loc`` and ``scale`` of the ``VecNormV2`` in
+    ``transform`` (``(None, None)`` when it has none: observations are not normalised).
+
+    Statistics that never saw data (a checkpoint saved before the first step) have a
+    zero bias correction and come out NaN: those entries are left unnormalised.
+    """
+    normaliser = next((t for t in transform if isinstance(t, VecNormV2)), None)
+    if normaliser is None:
+        return None, None
+    loc = {g: normaliser.loc[g, "observation"].nan_to_num(0.0) for g in groups}
+    scale = {g: normaliser.scale[g, "observation"].nan_to_num(1.0, posinf=1.0) for g in groups}
+    return loc, scale
