@@ -232,9 +232,15 @@ def test_pettingzoo_wraps_discrete_games_and_one_world_only() -> None:
         BatchedGameParallelEnv(make_game("tennis", num_envs=2))
 
 
-@pytest.mark.parametrize("game", ["tennis", "soccer"])
-def test_torchrl_pettingzoo_wrapper_accepts_the_parallel_env(game: str) -> None:
-    """Info keys are the same at reset and step, so TorchRL's wrapper sizes its specs."""
+@pytest.mark.parametrize(
+    ("game", "group", "manager_size"), [("tennis", "racket", 10), ("soccer", "striker", 200)]
+)
+def test_torchrl_pettingzoo_wrapper_accepts_the_parallel_env(
+    game: str, group: str, manager_size: int
+) -> None:
+    """Info keys are the same at reset and step, so TorchRL's wrapper sizes its specs
+    (before, it failed on the first step). No point can end within 3 steps of a serve or
+    kick-off, so ``scoring_team`` is -1 throughout: the check is that the key is carried."""
     import importlib
 
     from torchrl.envs import PettingZooWrapper
@@ -242,6 +248,5 @@ def test_torchrl_pettingzoo_wrapper_accepts_the_parallel_env(game: str) -> None:
     module = importlib.import_module(f"rlhc.envs.{game}")
     env = PettingZooWrapper(module.parallel_env(max_cycles=5), use_mask=True)
     rollout = env.rollout(3)
-    group = "racket" if game == "tennis" else "striker"
-    assert rollout[group, "info", "manager_observation"].shape[-1] in (10, 200)
+    assert rollout[group, "info", "manager_observation"].shape[-1] == manager_size
     assert (rollout["next", group, "info", "scoring_team"] == -1).all()

@@ -118,7 +118,7 @@ def test_observation_layout_and_sizes() -> None:
     game = SoccerGame(num_worlds=3, seed=0)
     assert [spec.observation_size for spec in game.groups] == [112, 112]
     assert [spec.manager_observation_size for spec in game.groups] == [200, 200]
-    assert len(OBJECT_TYPES) == NUM_TYPES == 7
+    assert NUM_TYPES == 7
     observations = game.observe()
     for spec in game.groups:
         seen = observations[spec.name]
