@@ -87,9 +87,8 @@ def main() -> None:
         meta = {
             "machine": platform.platform(),
             "processor": platform.processor(),
-            "args": vars(args),
+            "args": {**vars(args), "output": str(args.output)},
         }
-        meta["args"]["output"] = str(args.output)
         args.output.write_text(json.dumps({"meta": meta, "results": rows}, indent=2) + "\n")
 
 
