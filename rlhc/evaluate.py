@@ -3,7 +3,8 @@
 Wiring only: compose and validate the config, seed, hand over to
 :mod:`rlhc.evaluation.commands`. Outputs go to
 ``outputs/evaluate/<env>/<mode>/<time>/`` (``results.json``, ``matches.csv``; in
-``mode=elo``: ``elo.json``, ``elo.csv``, ``pairings.csv``).
+``mode=elo``: ``elo.json``, ``elo.csv``, ``pairings.csv``); with ``video.enabled=true`` a
+match video (``match.gif``; in ``mode=elo`` one per pairing under ``videos/``).
 
 Examples:
     python -m rlhc.evaluate env=soccer home=outputs/soccer/hierarchical/<time> away=scripted matches=100

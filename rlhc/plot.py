@@ -5,24 +5,31 @@ estimate; per group for group metrics) of every run under the given paths, seeds
 one configuration averaged with a shaded 95% t interval, and prints each
 configuration's last-10% value of every curve (mean ± t interval over its runs).
 
+Arguments that hold no run (a multirun's ``multirun.yaml``, a directory without
+``metrics.csv``) are skipped with one warning line, so a shell glob works as written.
+
 Examples:
     python -m rlhc.plot multirun/2025-01-01_00-00-00 --out docs/images/tennis.png
+    python -m rlhc.plot multirun/2025-01-01_00-00-00/* --out curves.png
     python -m rlhc.plot outputs/tennis --group-by critic.fusion env.extended_obs
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Sequence
 
 from rlhc.evaluation.stats import t_interval
 from rlhc.plotting import (
+    METRICS_FILE,
     PAPER_METRICS,
     final_values,
     group_runs,
     load_runs,
     panel_metrics,
     plot_runs,
+    split_run_paths,
 )
 
 
@@ -64,10 +71,30 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
+    """Plot and print; paths holding no run (e.g. ``multirun.yaml``) are skipped with a warning.
+
+    Raises:
+        SystemExit: a path does not exist, or no run directory remains (one line).
+    """
     args = parse_args(argv)
-    out = plot_runs(args.runs, args.out, args.smoothing, args.group_by, args.metrics)
+    try:
+        run_dirs, not_runs = split_run_paths(args.runs)
+    except FileNotFoundError as error:
+        raise SystemExit(f"rlhc.plot: error: {error}") from None
+    if not_runs:
+        print(
+            f"rlhc.plot: warning: skipping {len(not_runs)} path(s) with no {METRICS_FILE} "
+            f"at or under them (not run directories): {', '.join(map(str, not_runs))}",
+            file=sys.stderr,
+        )
+    if not run_dirs:
+        raise SystemExit(
+            f"rlhc.plot: error: no run directory (one holding {METRICS_FILE}) at or under "
+            f"{', '.join(args.runs)}"
+        )
+    out = plot_runs(run_dirs, args.out, args.smoothing, args.group_by, args.metrics)
     print(f"wrote {out}")
-    runs = load_runs(args.runs)
+    runs = load_runs(run_dirs)
     groups = group_runs(runs, args.group_by)
     print(
         f"\nmean of the last {args.final_fraction:.0%} of each curve (± 95% t interval over runs):"

@@ -79,13 +79,24 @@ class Run:
         return self.columns["step"]
 
 
-def find_runs(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
-    """Run directories (those holding ``metrics.csv``) at or under ``paths``, sorted.
+def split_run_paths(
+    paths: Iterable[str | os.PathLike[str]],
+) -> tuple[list[Path], list[Path]]:
+    """The run directories (holding ``metrics.csv``) at or under ``paths``, and the paths with none.
+
+    A path is a run directory, a directory with runs below it (a multirun) or a
+    ``metrics.csv`` file; any other file (a multirun's ``multirun.yaml``) or a directory
+    without ``metrics.csv`` below it holds no run.
+
+    Returns:
+        ``(runs, not_runs)``: run directories sorted without duplicates; paths holding no
+        run in the order given.
 
     Raises:
-        FileNotFoundError: a path does not exist, or holds no ``metrics.csv`` at all.
+        FileNotFoundError: a path does not exist (named).
     """
     found: list[Path] = []
+    not_runs: list[Path] = []
     for raw in paths:
         path = Path(raw).expanduser()
         if path.is_file() and path.name == METRICS_FILE:
@@ -93,11 +104,23 @@ def find_runs(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
             continue
         if not path.exists():
             raise FileNotFoundError(f"run path {str(path)!r} does not exist")
-        runs = sorted(p.parent for p in path.rglob(METRICS_FILE))
-        if not runs:
-            raise FileNotFoundError(f"no {METRICS_FILE} at or under {str(path)!r}")
+        runs = sorted(p.parent for p in path.rglob(METRICS_FILE)) if path.is_dir() else []
         found.extend(runs)
-    return sorted(dict.fromkeys(found))
+        if not runs:
+            not_runs.append(path)
+    return sorted(dict.fromkeys(found)), not_runs
+
+
+def find_runs(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
+    """Run directories at or under ``paths``, sorted; every path must hold one.
+
+    Raises:
+        FileNotFoundError: a path does not exist, or holds no ``metrics.csv`` at all.
+    """
+    runs, not_runs = split_run_paths(paths)
+    if not_runs:
+        raise FileNotFoundError(f"no {METRICS_FILE} at or under {str(not_runs[0])!r}")
+    return runs
 
 
 def read_metrics(path: Path) -> dict[str, np.ndarray]:

@@ -3,7 +3,7 @@
 | mode | plays | writes (into the run directory) |
 |---|---|---|
 | ``match`` | ``home`` vs ``away``, ``matches`` times | ``results.json`` (summary), ``matches.csv`` (one row per match), optionally ``match.gif``/``.mp4`` |
-| ``elo`` | every pair of ``players``, ``matches`` times each | ``elo.json``, ``elo.csv`` (standings), ``pairings.csv`` (one row per pairing) |
+| ``elo`` | every pair of ``players``, ``matches`` times each | ``elo.json``, ``elo.csv`` (standings), ``pairings.csv`` (one row per pairing), optionally ``videos/<i>_<home>_vs_<away>.gif``/``.mp4`` (one match per pairing) |
 """
 
 from __future__ import annotations
@@ -22,13 +22,14 @@ from rlhc.evaluation.matches import (
     play_matches,
 )
 from rlhc.evaluation.opponents import make_team_policy, player_options
-from rlhc.evaluation.video import record_match
+from rlhc.evaluation.video import file_label, record_match
 
 RESULTS_FILE = "results.json"
 MATCHES_FILE = "matches.csv"
 ELO_FILE = "elo.json"
 STANDINGS_FILE = "elo.csv"
 PAIRINGS_FILE = "pairings.csv"
+VIDEO_DIR = "videos"
 
 
 def play_series(cfg: EvaluateConfig, home: str, away: str) -> MatchResult:
@@ -66,6 +67,24 @@ def format_summary(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def record_video(cfg: EvaluateConfig, home: str, away: str, path: Path) -> Path:
+    """One match of ``home`` (team 0) against ``away`` written to ``path`` (``cfg.video``)."""
+    written, _, frames = record_match(
+        cfg.env.name,
+        home,
+        away,
+        path,
+        max_frames=cfg.video.max_frames,
+        fps=cfg.video.fps,
+        seed=cfg.seed,
+        deterministic=cfg.deterministic,
+        points_to_win=cfg.points_to_win,
+        env_options=cfg.env.game_options(),
+    )
+    print(f"  video: {written} ({frames} frames)")
+    return written
+
+
 def run_match(cfg: EvaluateConfig, out_dir: Path) -> dict[str, Any]:
     """``mode=match``: play, print, write ``results.json`` and ``matches.csv``."""
     result = play_series(cfg, cfg.home, cfg.away)
@@ -75,37 +94,33 @@ def run_match(cfg: EvaluateConfig, out_dir: Path) -> dict[str, Any]:
     _write_csv(out_dir / MATCHES_FILE, result.rows())
     print(format_summary(summary))
     if cfg.video.enabled:
-        path, _, frames = record_match(
-            cfg.env.name,
-            cfg.home,
-            cfg.away,
-            out_dir / f"match.{cfg.video.format}",
-            max_frames=cfg.video.max_frames,
-            fps=cfg.video.fps,
-            seed=cfg.seed,
-            deterministic=cfg.deterministic,
-            points_to_win=cfg.points_to_win,
-            env_options=cfg.env.game_options(),
-        )
+        path = record_video(cfg, cfg.home, cfg.away, out_dir / f"match.{cfg.video.format}")
         summary["video"] = str(path)
-        print(f"  video: {path} ({frames} frames)")
     print(f"  results: {out_dir / RESULTS_FILE}")
     return summary
 
 
 def run_elo(cfg: EvaluateConfig, out_dir: Path) -> EloTable:
-    """``mode=elo``: a round robin of ``cfg.players``; print and write the standings."""
+    """``mode=elo``: a round robin of ``cfg.players``; print and write the standings.
+
+    With ``cfg.video.enabled``, one match per pairing is recorded into ``videos/``
+    (``<index>_<home>_vs_<away>.<format>``, home on team 0) and named in the pairing's row.
+    """
     players = list(dict.fromkeys(cfg.players))
     player_options(players, cfg.env.name)  # fail before playing if two checkpoints disagree
     table = EloTable(k=cfg.k_factor, initial=cfg.initial_rating)
     scores: dict[tuple[str, str], list[float]] = {}
     pairings: list[dict[str, Any]] = []
-    for home, away in round_robin(players):
+    for index, (home, away) in enumerate(round_robin(players)):
         result = play_series(cfg, home, away)
         scores[(home, away)] = result.scores.tolist()
         summary = result.summary()
-        pairings.append({k: summary[k] for k in ("home", "away", "wins", "draws", "losses")})
+        pairing = {k: summary[k] for k in ("home", "away", "wins", "draws", "losses")}
         print(f"{home} vs {away}: {summary['wins']}-{summary['draws']}-{summary['losses']}")
+        if cfg.video.enabled:
+            name = f"{index}_{file_label(home)}_vs_{file_label(away)}.{cfg.video.format}"
+            pairing["video"] = str(record_video(cfg, home, away, out_dir / VIDEO_DIR / name))
+        pairings.append(pairing)
     table.record_pairings(scores)
     standings = [{"player": p, "elo": r, "games": g} for p, r, g in table.standings()]
     out_dir.mkdir(parents=True, exist_ok=True)

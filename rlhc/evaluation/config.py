@@ -16,10 +16,10 @@ ENVS = ("tennis", "soccer")
 
 @dataclass
 class VideoConfig:
-    """An optional video of one match (home on team 0), next to the results.
+    """Optional match videos (home on team 0) next to the results: one per series or Elo pairing.
 
     Attributes:
-        enabled: record it.
+        enabled: record them.
         format: ``gif`` (Pillow) or ``mp4`` (imageio + ffmpeg).
         max_frames: the match is cut after ``max_frames - 1`` steps.
         fps: frames per second (``None``: the game's ``render_fps``).
@@ -56,7 +56,8 @@ class EvaluateConfig:
             (``None``: ``max_cycles × points_to_win``).
         k_factor: Elo K-factor.
         initial_rating: every player's Elo before the first match.
-        video: record one match of the series (``mode=match``).
+        video: record one match of the series (``mode=match``: ``match.<format>``;
+            ``mode=elo``: one per pairing, in ``videos/``).
         seed: seeds torch (random players, sampled actions) and the game.
         threads: torch intra-op threads.
     """

@@ -9,6 +9,7 @@ one-world env, so a video shows exactly what an evaluation plays.
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 from typing import Any
 
@@ -147,6 +148,18 @@ def record_match(
     )
     rate = fps if fps is not None else int(game.metadata.get("render_fps", 30))  # type: ignore[call-overload]
     return write_video(frames, path, rate), result, len(frames)
+
+
+def file_label(spec: str) -> str:
+    """:func:`_label` made safe for a file name (runs of other characters become ``-``).
+
+    Examples:
+        >>> file_label("outputs/soccer/ppo/2025-01-01_00-00-00/checkpoints/step_000000512.pt")
+        '2025-01-01_00-00-00-step_000000512'
+        >>> file_label("scripted")
+        'scripted'
+    """
+    return re.sub(r"[^A-Za-z0-9._=+-]+", "-", _label(spec)).strip("-") or "player"
 
 
 def _label(spec: str) -> str:
