@@ -223,7 +223,7 @@ def bench_route(route: str, env: str, critic: str, iterations: int, warmup: int)
         raise RuntimeError(f"expected one metrics row per iteration, got {len(rows)}")
     result = {"env": env, "critic": critic, "route": route, "worlds": layout.num_envs,
               "frames_per_batch": layout.frames_per_batch,
-              "minibatch": layout.minibatch_size, "warmup_iterations": warmup,
+              "minibatch": layout.minibatch_frames, "warmup_iterations": warmup,
               "build_s": build}  # fmt: skip
     result.update(combine(rows, cpu, layout.frames_per_batch, warmup))
     print(f"{env:7} {critic:13} {route:8} {result['train_frames_per_s']:>9,.0f} train frames/s, "

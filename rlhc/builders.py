@@ -14,7 +14,8 @@ import torch
 from torchrl.envs import Compose, EnvBase, RewardSum, TransformedEnv, VecNormV2
 
 from rlhc.config import TrainConfig
-from rlhc.envs import make_env
+from rlhc.envs import make_env, make_game
+from rlhc.envs.tennis.rules import FAULT_PENALTIES
 from rlhc.modules import NetworkConfig, make_actor, make_manager_critic, make_worker_critic
 from rlhc.objectives import FUSIONS, HierarchicalPPOLoss, make_ppo_loss
 
@@ -64,23 +65,135 @@ def validate(cfg: TrainConfig) -> None:
             f"algo.gamma={cfg.algo.gamma}, algo.lmbda={cfg.algo.lmbda}; "
             "allowed: gamma in (0, 1], lmbda in [0, 1]"
         )
-    if cfg.algo.lr <= 0:
-        raise ConfigError(f"algo.lr={cfg.algo.lr}; allowed: a number > 0")
+    numbers = {
+        # name: (value, lowest, highest, lowest allowed itself)
+        "algo.lr": (cfg.algo.lr, 0.0, math.inf, False),
+        "algo.clip_epsilon": (cfg.algo.clip_epsilon, 0.0, 1.0, False),
+        "algo.entropy_coef": (cfg.algo.entropy_coef, 0.0, math.inf, True),
+        "algo.critic_coef": (cfg.algo.critic_coef, 0.0, math.inf, False),
+        "algo.max_grad_norm": (cfg.algo.max_grad_norm, 0.0, math.inf, False),
+        "model.initial_action_scale": (cfg.model.initial_action_scale, 0.0, math.inf, False),
+    }
+    for name, (number, low, high, closed) in numbers.items():
+        above = number >= low if closed else number > low
+        if not (math.isfinite(number) and above and number < high):
+            bracket = "[" if closed else "("
+            raise ConfigError(
+                f"{name}={number}; allowed: a finite number in {bracket}{low}, {high})"
+            )
+    interval = cfg.env.decision_interval
+    if interval is not None and interval < 1:
+        raise ConfigError(
+            f"env.decision_interval={interval}; allowed: null (the game's default) or an "
+            "integer >= 1 (physics frames per decision)"
+        )
+    fault_penalty = getattr(cfg.env, "fault_penalty", None)
+    if fault_penalty is not None and fault_penalty not in FAULT_PENALTIES:
+        raise ConfigError(
+            f"env.fault_penalty={fault_penalty!r}; allowed: null or one of "
+            f"{', '.join(FAULT_PENALTIES)}"
+        )
 
 
 @dataclass(frozen=True)
 class Layout:
-    """How many worlds are simulated and how a buffer is cut (derived from the config)."""
+    """How an update is collected and cut, in the units of ML-Agents 0.5.
 
+    Attributes:
+        agents_per_world: ``n_g``, the agents of each group in one world (all groups
+            have the same size in both games).
+        num_envs: worlds simulated at once (a divisor of ``frames_per_batch``).
+        frames_per_batch: world-decisions per update, ``ceil(buffer_size / n_g)``.
+        steps_per_world: decisions of each world per update.
+        minibatch_frames: world-decisions per minibatch, ``batch_size / n_g``.
+        minibatches: minibatches per epoch, ``frames_per_batch // minibatch_frames``.
+        time_horizon: decisions after which a trajectory is cut (GAE bootstraps).
+
+    Examples:
+        >>> layout = Layout.build(buffer_size=10240, batch_size=1024, time_horizon=64,
+        ...                       agents_per_world=4, num_envs=None)
+        >>> layout.frames_per_batch, layout.num_envs, layout.steps_per_world
+        (2560, 40, 64)
+        >>> layout.minibatch_frames, layout.minibatches
+        (256, 10)
+    """
+
+    agents_per_world: int
     num_envs: int
     frames_per_batch: int
-    minibatch_size: int
+    steps_per_world: int
+    minibatch_frames: int
+    minibatches: int
+    time_horizon: int
+
+    @property
+    def experiences_per_batch(self) -> int:
+        """Agent-experiences of each group in one update (``>= buffer_size``)."""
+        return self.frames_per_batch * self.agents_per_world
+
+    @staticmethod
+    def build(
+        *,
+        buffer_size: int,
+        batch_size: int,
+        time_horizon: int,
+        agents_per_world: int,
+        num_envs: int | None,
+    ) -> Layout:
+        """The layout of an update; :class:`ConfigError` names any setting that cannot work."""
+        n = agents_per_world
+        if batch_size % n:
+            raise ConfigError(
+                f"algo.batch_size={batch_size}; allowed: a multiple of {n}, the agents of a "
+                f"group in one world (a minibatch holds whole world-decisions)"
+            )
+        if buffer_size < batch_size:
+            raise ConfigError(
+                f"algo.buffer_size={buffer_size} is smaller than algo.batch_size={batch_size}; "
+                "allowed: buffer_size >= batch_size (both in agent-experiences per group)"
+            )
+        frames = math.ceil(buffer_size / n)
+        divisors = [d for d in range(1, frames + 1) if frames % d == 0]
+        if num_envs is None:
+            # The fewest worlds that keep each world's share within one time horizon.
+            num_envs = next(d for d in divisors if frames // d <= time_horizon)
+        elif frames % num_envs:
+            shown = ", ".join(str(d) for d in divisors if d <= 1024)
+            raise ConfigError(
+                f"env.num_envs={num_envs} does not divide the {frames} world-decisions of an "
+                f"update (algo.buffer_size={buffer_size} experiences / {n} agents per group); "
+                f"allowed: null or one of {shown}"
+            )
+        minibatch = batch_size // n
+        return Layout(
+            agents_per_world=n,
+            num_envs=num_envs,
+            frames_per_batch=frames,
+            steps_per_world=frames // num_envs,
+            minibatch_frames=minibatch,
+            minibatches=frames // minibatch,
+            time_horizon=time_horizon,
+        )
 
     @staticmethod
     def from_config(cfg: TrainConfig) -> Layout:
-        num_envs = cfg.env.num_envs or math.ceil(cfg.algo.buffer_size / cfg.algo.time_horizon)
-        frames = num_envs * cfg.algo.time_horizon
-        return Layout(num_envs, frames, min(cfg.algo.batch_size, frames))
+        """The layout of ``cfg`` (builds a one-world game to count its agents)."""
+        return Layout.build(
+            buffer_size=cfg.algo.buffer_size,
+            batch_size=cfg.algo.batch_size,
+            time_horizon=cfg.algo.time_horizon,
+            agents_per_world=agents_per_world(cfg),
+            num_envs=cfg.env.num_envs,
+        )
+
+
+def agents_per_world(cfg: TrainConfig) -> int:
+    """Agents per group in one world of ``cfg.env`` (the same for every group)."""
+    game = make_game(cfg.env.name, num_envs=1, seed=0, **cfg.env.game_options())
+    sizes = {spec.name: spec.num_agents for spec in game.groups}
+    if len(set(sizes.values())) != 1:
+        raise ConfigError(f"groups of different sizes are not supported: {sizes}")
+    return next(iter(sizes.values()))
 
 
 def make_training_env(cfg: TrainConfig, num_envs: int, seed: int) -> TransformedEnv:
@@ -122,6 +235,7 @@ def network_config(cfg: TrainConfig) -> NetworkConfig:
         num_layers=cfg.model.num_layers,
         hidden_size=cfg.model.hidden_size,
         activation=cfg.model.activation,
+        initial_action_scale=cfg.model.initial_action_scale,
     )
 
 

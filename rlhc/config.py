@@ -2,8 +2,8 @@
 
 Every yaml file in ``conf/`` names one of these schemas in its defaults list, so a
 misspelt key or a value of the wrong type fails before anything is built. The
-defaults here are the paper's tennis column of Table 3; ``conf/table3/soccer.yaml``
-holds the soccer column.
+defaults here are the paper's tennis column of Table 3 (``conf/table3/tennis.yaml``, which the
+configs compose); ``conf/table3/soccer.yaml`` holds the soccer column.
 """
 
 from __future__ import annotations
@@ -36,18 +36,32 @@ class CriticConfig:
 
 @dataclass
 class PPOConfig:
-    """PPO hyperparameters (paper Table 3; a frame is one step of one world).
+    """PPO hyperparameters (paper Table 3, in the units of the trainer it ran on).
+
+    The paper's trainer is ML-Agents 0.5, whose units these are: a *world-decision*
+    (a "frame" in ``metrics.csv``) is one decision of every agent of one court or pitch;
+    an *agent-experience* is one agent's one decision. Which worlds are simulated at
+    once (``env.num_envs``) changes neither the budget nor the size of an update.
 
     Attributes:
-        max_steps: frames to train for.
-        buffer_size: frames collected per iteration; rounded up to a multiple of
-            ``time_horizon`` (one segment of ``time_horizon`` steps per world).
-        time_horizon: steps collected from each world per iteration.
-        batch_size: minibatch size in frames (every agent of every group in a frame).
-        epochs: passes over each collected buffer.
+        max_steps: the budget, in world-decisions (the paper's ``max_steps`` counts
+            steps of its whole scene: multiply by the worlds of that scene).
+        buffer_size: agent-experiences per group that one update trains on: an update
+            starts once every group holds at least this many (``ceil(buffer_size / n_g)``
+            world-decisions, ``n_g`` the agents of a group).
+        time_horizon: decisions of one agent after which its trajectory is cut and GAE
+            bootstraps from the value of the next observation.
+        batch_size: agent-experiences per group in one minibatch (a multiple of
+            ``n_g``); each epoch shuffles the buffer into ``buffer // batch`` minibatches
+            and, as ML-Agents 0.5, leaves out the remainder.
+        epochs: passes over each buffer.
         lr: Adam learning rate.
         anneal_lr: decay the learning rate linearly to 0 over ``max_steps``.
-        gamma: discount.
+        anneal_entropy_coef: decay ``entropy_coef`` linearly to 1e-5 over ``max_steps``
+            (ML-Agents 0.5).
+        anneal_clip_epsilon: decay ``clip_epsilon`` linearly to 0.1 over ``max_steps``
+            (ML-Agents 0.5).
+        gamma: discount per decision.
         lmbda: GAE lambda.
         clip_epsilon: PPO ratio clip.
         entropy_coef: the paper's ``beta``.
@@ -58,13 +72,15 @@ class PPOConfig:
             (the paper's ``normalize``).
     """
 
-    max_steps: int = 200_000
+    max_steps: int = 3_600_000
     buffer_size: int = 10_240
     time_horizon: int = 64
     batch_size: int = 1024
     epochs: int = 3
     lr: float = 3e-4
     anneal_lr: bool = True
+    anneal_entropy_coef: bool = True
+    anneal_clip_epsilon: bool = True
     gamma: float = 0.99
     lmbda: float = 0.95
     clip_epsilon: float = 0.2
@@ -83,7 +99,11 @@ class ModelConfig:
         kind: ``mlp``. (``lstm`` is recognised and refused with an explanation.)
         num_layers: hidden layers.
         hidden_size: units per hidden layer.
-        activation: ``tanh``, ``relu`` or ``elu``.
+        activation: ``tanh``, ``relu``, ``elu``, ``gelu`` or ``silu`` (swish, ML-Agents 0.5).
+        initial_action_scale: continuous actions: the policy's scale (before the tanh
+            squashing) when the network's scale output is 0, i.e. at initialisation.
+            0.5 by measurement (see the README): the shot window is narrow, and a
+            scale of 1 buries the policy's aim in noise.
         memory_size: LSTM memory size (recurrent option, Table 3).
         sequence_length: LSTM training sequence length (recurrent option, Table 3).
     """
@@ -91,7 +111,8 @@ class ModelConfig:
     kind: str = "mlp"
     num_layers: int = 2
     hidden_size: int = 128
-    activation: str = "tanh"
+    activation: str = "silu"
+    initial_action_scale: float = 0.5
     memory_size: int = 256
     sequence_length: int = 64
 
@@ -102,7 +123,8 @@ class LoggerConfig:
 
     Attributes:
         backends: any of ``csv`` (``metrics.csv``, always written), ``tensorboard``, ``wandb``.
-        summary_freq: log after every update that crosses a multiple of this many frames.
+        summary_freq: log after every update that crosses a multiple of this many
+            world-decisions.
         progress: show a progress bar (``None``: only when stderr is a terminal).
         wandb_project: wandb project name.
         wandb_mode: ``auto`` (online if an API key is configured, else offline),
@@ -110,7 +132,7 @@ class LoggerConfig:
     """
 
     backends: list[str] = field(default_factory=lambda: ["csv", "tensorboard"])
-    summary_freq: int = 1000
+    summary_freq: int = 18_000
     progress: bool | None = None
     wandb_project: str = "rlhc"
     wandb_mode: str = "auto"
@@ -128,11 +150,11 @@ class TrainConfig:
         logger: metrics backends (group ``logger``).
         seed: seeds torch, numpy and the game.
         checkpoint_freq: save a checkpoint after every update that crosses a multiple of
-            this many frames (and always at the end).
+            this many world-decisions (and always at the end).
         resume: a checkpoint file, or a run directory (its latest checkpoint), to continue.
         device: torch device.
         threads: torch intra-op threads (``0``: leave torch's default).
-        eval_freq: every this many frames, play ``eval_matches`` matches against the
+        eval_freq: every this many world-decisions, play ``eval_matches`` matches against the
             scripted team and log the win rate (``0``: never).
         eval_matches: matches per periodic evaluation (half on each side).
     """
@@ -143,7 +165,7 @@ class TrainConfig:
     model: ModelConfig = field(default_factory=ModelConfig)
     logger: LoggerConfig = field(default_factory=LoggerConfig)
     seed: int = 0
-    checkpoint_freq: int = 50_000
+    checkpoint_freq: int = 500_000
     resume: str | None = None
     device: str = "cpu"
     threads: int = 1

@@ -1,9 +1,13 @@
 """The training loop: collector → hierarchical value estimator → PPO loss → Adam.
 
-Read :meth:`Trainer.train` top to bottom: collect ``time_horizon`` steps from every
-world, estimate fused values and advantages per group (RLHC), run ``epochs`` passes of
-minibatch PPO over the buffer, log, checkpoint. Both teams of a game share each group's
-policy (symmetric self-play).
+Read :meth:`Trainer.train` top to bottom: collect ``buffer_size`` agent-experiences per
+group from every world, estimate fused values and advantages per group (RLHC), run
+``epochs`` passes of minibatch PPO over the buffer, log, checkpoint. Both teams of a
+game share each group's policy (symmetric self-play).
+
+Units are ML-Agents 0.5's, the trainer the paper ran (see :class:`~rlhc.config.PPOConfig`
+and :class:`~rlhc.builders.Layout`): the budget, summary and checkpoint periods count
+world-decisions ("frames"), buffer and minibatch count agent-experiences per group.
 """
 
 from __future__ import annotations
@@ -41,11 +45,16 @@ from rlhc.checkpoint import (
     save_checkpoint,
     set_rng_states,
 )
-from rlhc.config import TrainConfig
+from rlhc.config import PPOConfig, TrainConfig
 from rlhc.envs import make_env
 from rlhc.envs.base import BatchedGame
 from rlhc.loggers import MetricLogger
 from rlhc.objectives import LOSS_KEYS
+
+#: Where ML-Agents 0.5 decays the entropy coefficient and the clip range to (linearly
+#: over the budget, like the learning rate, which goes to 0).
+FINAL_ENTROPY_COEF = 1e-5
+FINAL_CLIP_EPSILON = 0.1
 
 #: Loss-output diagnostics averaged over minibatches and logged per group.
 LOSS_DIAGNOSTICS = (
@@ -66,6 +75,48 @@ def seed_everything(seed: int) -> None:
     random.seed(seed)
     np.random.seed(seed)
     torch.manual_seed(seed)
+
+
+def schedules(algo: PPOConfig, frames: int) -> tuple[float, float, float]:
+    """Learning rate, entropy coefficient and clip range after ``frames`` world-decisions.
+
+    As ML-Agents 0.5: each decays linearly over the budget (where enabled), the learning
+    rate to 0, the entropy coefficient to 1e-5, the clip range to 0.1.
+
+    Examples:
+        >>> from rlhc.config import PPOConfig
+        >>> schedules(PPOConfig(max_steps=100, lr=1e-3, entropy_coef=0.01), 50)
+        (0.0005, 0.005005, 0.15000000000000002)
+    """
+    progress = min(1.0, frames / algo.max_steps)
+    lr = algo.lr * (1.0 - progress) if algo.anneal_lr else algo.lr
+    entropy_coef = algo.entropy_coef
+    if algo.anneal_entropy_coef:
+        entropy_coef += (FINAL_ENTROPY_COEF - entropy_coef) * progress
+    clip_epsilon = algo.clip_epsilon
+    if algo.anneal_clip_epsilon:
+        clip_epsilon += (FINAL_CLIP_EPSILON - clip_epsilon) * progress
+    return lr, entropy_coef, clip_epsilon
+
+
+def cut_trajectories(batch: TensorDictBase, groups: list[str], horizon: int) -> None:
+    """Cut every world's trajectory each ``horizon`` decisions of ``batch`` ``[N, T]``.
+
+    ML-Agents cuts an agent's trajectory every ``time_horizon`` decisions and bootstraps
+    there. A cut is a ``done`` that is not ``terminated`` (set in place on each group's
+    ``("next", g, "done")``): GAE stops accumulating at it and bootstraps from the next
+    observation's value. Nothing changes when ``T <= horizon``: the end of a batch is a
+    cut anyway.
+    """
+    steps = batch.shape[-1]
+    if steps <= horizon:
+        return
+    cut = torch.zeros(steps, dtype=torch.bool)
+    cut[horizon - 1 :: horizon] = True
+    for group in groups:
+        done = batch["next", group, "done"]
+        shape = (1, steps) + (1,) * (done.dim() - 2)
+        batch["next", group, "done"] = done | cut.view(shape)
 
 
 class Trainer:
@@ -157,7 +208,7 @@ class Trainer:
                 collect_time = time.perf_counter() - collect_start
                 self._collect_episode_stats(batch, episodes)
                 update_start = time.perf_counter()
-                self._set_learning_rate()
+                self._set_schedules()
                 for name, value in self._update(batch).items():
                     summary[name].append(value)
                 update_time = time.perf_counter() - update_start
@@ -191,15 +242,19 @@ class Trainer:
     def _update(self, batch: TensorDictBase) -> dict[str, float]:
         """Estimate advantages per group, then ``epochs`` passes of minibatch PPO."""
         algo = self.cfg.algo
+        layout = self.layout
         stats: dict[str, list[float]] = defaultdict(list)
+        cut_trajectories(batch, self.groups, layout.time_horizon)
         with torch.no_grad():
             for group, loss in self.losses.items():
                 loss.value_estimator(batch)
                 for key in ("state_value", "worker_value", "manager_value", "manager_selected"):
                     stats[f"{group}/{key}"].append(batch[group, key].float().mean().item())
         flat = batch.reshape(-1)
+        used = layout.minibatches * layout.minibatch_frames
         for _ in range(algo.epochs):
-            for index in torch.randperm(flat.numel()).split(self.layout.minibatch_size):
+            # As ML-Agents 0.5: whole minibatches only, the shuffled remainder left out.
+            for index in torch.randperm(flat.numel())[:used].split(layout.minibatch_frames):
                 minibatch = flat[index]
                 total = torch.zeros(())
                 for group, loss in self.losses.items():
@@ -219,8 +274,13 @@ class Trainer:
     def _collect_episode_stats(
         self, batch: TensorDictBase, episodes: dict[str, list[torch.Tensor]]
     ) -> None:
-        """Returns and lengths of the episodes that ended in ``batch``."""
+        """Returns and lengths of the episodes that ended in ``batch``; game events."""
         done = batch["next", "done"].squeeze(-1)
+        if ("next", "info") in batch.keys(include_nested=True):
+            for key, value in batch["next", "info"].items():
+                # Events per episode: summed over the window, divided by its episodes.
+                per_world = value.reshape(*batch.shape, -1).sum(dim=(0, 1))
+                episodes[f"events/{key}"].append(per_world)
         if not done.any():
             return
         episodes["episode_length"].append(batch["next", "step_count"][done].float().flatten())
@@ -233,10 +293,26 @@ class Trainer:
         self, summary: dict[str, list[float]], episodes: dict[str, list[torch.Tensor]]
     ) -> dict[str, float]:
         metrics = {name: float(np.mean(values)) for name, values in summary.items()}
+        count = float(sum(len(c) for c in episodes.get("episode_length", [])))
         for name, chunks in episodes.items():
-            metrics[name] = torch.cat(chunks).mean().item()
-        metrics["episodes"] = float(sum(len(c) for c in episodes.get("episode_length", [])))
+            if name.startswith("events/"):
+                totals = torch.stack(chunks).sum(dim=0) / max(count, 1.0)
+                if totals.numel() == 1:
+                    metrics[f"{name}_per_episode"] = totals.item()
+                else:
+                    for index, total in enumerate(totals.tolist()):
+                        metrics[f"{name}_{index}_per_episode"] = total
+            else:
+                metrics[name] = torch.cat(chunks).mean().item()
+        metrics["episodes"] = count
+        metrics["frames"] = float(self.frames)
+        for group in self.groups:
+            metrics[f"{group}/experiences"] = float(self.frames * self.layout.agents_per_world)
+        metrics["updates"] = float(self.iteration)
         metrics["lr"] = self.optimizer.param_groups[0]["lr"]
+        first_loss = next(iter(self.losses.values()))
+        metrics["entropy_coef"] = float(first_loss.entropy_coeff)
+        metrics["clip_epsilon"] = float(first_loss.clip_epsilon)
         metrics["wall_time"] = self.wall_time
         metrics["iteration"] = float(self.iteration)
         return dict(sorted(metrics.items()))
@@ -319,12 +395,14 @@ class Trainer:
                     seen.setdefault(id(parameter), parameter)
         return list(seen.values())
 
-    def _set_learning_rate(self) -> None:
-        lr = self.cfg.algo.lr
-        if self.cfg.algo.anneal_lr:
-            lr *= max(0.0, 1.0 - self.frames / self.cfg.algo.max_steps)
+    def _set_schedules(self) -> None:
+        lr, entropy_coef, clip_epsilon = schedules(self.cfg.algo, self.frames)
         for group in self.optimizer.param_groups:
             group["lr"] = lr
+        for loss in self.losses.values():
+            # Schedulable buffers of TorchRL's PPO losses: assignment updates them in place.
+            loss.entropy_coeff = entropy_coef
+            loss.clip_epsilon = clip_epsilon
 
     def _crossed(self, previous: int, every: int) -> bool:
         return previous // every != self.frames // every

@@ -58,9 +58,10 @@ def test_critic_names_map_to_fusions() -> None:
     [
         (
             "tennis",
-            dict(batch_size=1024, buffer_size=10240, max_steps=200_000, lr=3e-4,
+            # Paper: 200 K steps and summaries every 1,000 steps of an 18-court scene.
+            dict(batch_size=1024, buffer_size=10240, max_steps=3_600_000, lr=3e-4,
                  entropy_coef=0.005, time_horizon=64, normalize_observations=True,
-                 hidden_size=128, summary_freq=1000),
+                 hidden_size=128, summary_freq=18_000),
         ),
         (
             "soccer",
@@ -88,6 +89,9 @@ def test_defaults_follow_table_3(env: str, values: dict[str, float]) -> None:
         0.99, 0.95, 0.2, 3,
     )  # fmt: skip
     assert cfg.model.num_layers == 2
+    # ML-Agents 0.5 parity: swish, and lr, beta and epsilon decayed over the budget.
+    assert cfg.model.activation == "silu"
+    assert cfg.algo.anneal_lr and cfg.algo.anneal_entropy_coef and cfg.algo.anneal_clip_epsilon
 
 
 def test_overrides_reach_the_config() -> None:

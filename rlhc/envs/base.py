@@ -9,6 +9,11 @@ adapters are then generic:
 * :mod:`rlhc.envs.pettingzoo_adapter` turns a one-world game into a PettingZoo
   ``ParallelEnv`` (for users, for the PettingZoo API tests and for rendering).
 
+A *decision* (one :meth:`BatchedGame.step`) holds every agent's action for
+``decision_interval`` physics frames, as ML-Agents' ``numberOfActionsBetweenDecisions``
+does (its example scenes: 5 frames of 0.02 s). Rewards are summed over the frames;
+``step_count`` and ``max_cycles`` count decisions.
+
 Shapes use ``N`` for worlds and ``n_g`` for the number of agents in group ``g``.
 Agents are named ``<group>_<i>``; within a group, index ``i`` is the agent's
 position in :attr:`GroupSpec.agents`.
@@ -84,15 +89,35 @@ class GroupObservation:
 
 
 @dataclass
+class FrameOutcome:
+    """The result of one physics frame of all worlds (:meth:`BatchedGame.advance`).
+
+    Attributes:
+        rewards: per group, ``float32 [N, n_g]``.
+        terminated: ``bool [N]``: the point/goal ended the episode on this frame.
+        scoring_team: ``int64 [N]``: the team that won the point/goal, -1 if none.
+        info: extra per-world arrays for logging, each ``[N, ...]``; summed over the
+            frames of a decision (a boolean event becomes a count).
+    """
+
+    rewards: dict[str, np.ndarray]
+    terminated: np.ndarray
+    scoring_team: np.ndarray
+    info: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+@dataclass
 class StepOutcome:
-    """The result of one lockstep step of all worlds.
+    """The result of one lockstep decision of all worlds.
 
     Attributes:
         rewards: per group, ``float32 [N, n_g]``.
         terminated: ``bool [N]``: the point/goal ended the episode (no bootstrap).
-        truncated: ``bool [N]``: ``max_cycles`` reached without termination (bootstrap).
+        truncated: ``bool [N]``: ``max_cycles`` decisions reached without termination
+            (bootstrap).
         scoring_team: ``int64 [N]``: the team that won the point/goal this step, -1 if none.
-        info: extra per-world arrays for logging (e.g. dense reward parts), each ``[N, ...]``.
+        info: extra per-world arrays for logging (e.g. dense reward parts, events), each
+            ``[N, ...]``, summed over the decision's frames.
     """
 
     rewards: dict[str, np.ndarray]
@@ -105,28 +130,45 @@ class StepOutcome:
 class BatchedGame(abc.ABC):
     """``num_worlds`` independent worlds of one game, stepped in lockstep.
 
-    Subclasses set :attr:`name` and :attr:`groups` and implement the abstract methods.
-    A finished world is *not* reset automatically: the caller (an adapter) resets the
-    worlds it wants with ``reset(mask=...)``; stepping a finished world is allowed and
-    simply continues its simulation (adapters never rely on it).
+    Subclasses set :attr:`name` and :attr:`groups` and implement the abstract methods;
+    :meth:`advance` simulates one physics frame, and :meth:`step` (one decision) holds
+    the actions for ``decision_interval`` frames. A finished world is *not* reset
+    automatically: the caller (an adapter) resets the worlds it wants with
+    ``reset(mask=...)``; stepping a finished world is allowed and simply continues its
+    simulation (adapters never rely on it).
 
     Args:
         num_worlds: how many worlds to simulate (``N >= 1``).
-        max_cycles: steps after which an episode is truncated.
+        max_cycles: decisions after which an episode is truncated.
         seed: seed of the game's ``numpy.random.Generator`` (``None``: from entropy).
+        decision_interval: physics frames per decision (``>= 1``), the action held in
+            between.
     """
 
     name: ClassVar[str]
     groups: tuple[GroupSpec, ...]
+    #: The :attr:`StepOutcome.info` entries that adapters publish (per-world shape each,
+    #: e.g. ``{"hits_over_net": ()}``): events a trainer counts, such as hits or goals.
+    published_info: ClassVar[dict[str, tuple[int, ...]]] = {}
     metadata: ClassVar[dict[str, object]] = {"render_modes": ["rgb_array"], "render_fps": 30}
 
-    def __init__(self, num_worlds: int, max_cycles: int, seed: int | None = None) -> None:
-        if not isinstance(num_worlds, int | np.integer) or num_worlds < 1:
-            raise ValueError(f"num_worlds must be an integer >= 1, got {num_worlds!r}")
-        if not isinstance(max_cycles, int | np.integer) or max_cycles < 1:
-            raise ValueError(f"max_cycles must be an integer >= 1, got {max_cycles!r}")
+    def __init__(
+        self,
+        num_worlds: int,
+        max_cycles: int,
+        seed: int | None = None,
+        decision_interval: int = 1,
+    ) -> None:
+        for name, value in (
+            ("num_worlds", num_worlds),
+            ("max_cycles", max_cycles),
+            ("decision_interval", decision_interval),
+        ):
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
         self.num_worlds = int(num_worlds)
         self.max_cycles = int(max_cycles)
+        self.decision_interval = int(decision_interval)
         self.rng = np.random.default_rng(seed)
         self.step_count = np.zeros(self.num_worlds, dtype=np.int64)
 
@@ -156,16 +198,56 @@ class BatchedGame(abc.ABC):
         Resets ``step_count`` of those worlds to 0.
         """
 
-    @abc.abstractmethod
     def step(self, actions: Mapping[str, np.ndarray]) -> StepOutcome:
-        """Advance every world one step.
+        """Advance every world one decision: ``decision_interval`` frames of ``actions``.
+
+        A world whose episode ends on a frame takes no reward, score or info from the
+        decision's later frames (its simulation runs on until the caller resets it).
 
         Args:
             actions: per group, ``float [N, n_g, size]`` (continuous) or ``int [N, n_g]``
                 (discrete). Validated by :func:`validate_actions`.
 
         Returns:
-            The rewards and episode ends of this step; ``step_count`` is incremented.
+            The rewards and episode ends of this decision; ``step_count`` is incremented.
+        """
+        checked = validate_actions(self.groups, actions, self.num_worlds)
+        n = self.num_worlds
+        rewards = {g.name: np.zeros((n, g.num_agents), dtype=np.float32) for g in self.groups}
+        ended = np.zeros(n, dtype=bool)
+        scoring = np.full(n, -1, dtype=np.int64)
+        info: dict[str, np.ndarray] = {}
+        for _ in range(self.decision_interval):
+            frame = self.advance(checked)
+            live = ~ended
+            for name, reward in frame.rewards.items():
+                rewards[name] += np.where(live[:, None], reward, 0.0).astype(np.float32)
+            for name, value in frame.info.items():
+                mask = live.reshape((n,) + (1,) * (np.ndim(value) - 1))
+                info[name] = info.get(name, 0) + np.where(mask, value, 0)
+            scoring = np.where(live & frame.terminated, frame.scoring_team, scoring)
+            ended |= frame.terminated
+            if ended.all():
+                break
+        self.step_count += 1
+        truncated = (self.step_count >= self.max_cycles) & ~ended
+        return StepOutcome(
+            rewards=rewards,
+            terminated=ended,
+            truncated=truncated,
+            scoring_team=scoring,
+            info=info,
+        )
+
+    @abc.abstractmethod
+    def advance(self, actions: Mapping[str, np.ndarray]) -> FrameOutcome:
+        """Advance every world one physics frame with ``actions`` (already validated).
+
+        Args:
+            actions: per group, the output of :func:`validate_actions`.
+
+        Returns:
+            The rewards and episode ends of this frame (``step_count`` is not touched).
         """
 
     @abc.abstractmethod

@@ -18,14 +18,20 @@ class EnvConfig:
 
     Attributes:
         name: the game, ``"tennis"`` or ``"soccer"``.
-        num_envs: worlds simulated by the one env object; ``None`` derives it from the
-            algorithm's buffer size and time horizon (``ceil(buffer_size / time_horizon)``).
-        max_cycles: steps after which an episode is truncated (``None``: the game's default).
+        num_envs: worlds simulated by the one env object, a divisor of the world-decisions
+            of an update; ``None``: the smallest divisor that keeps every world's share
+            of an update within ``algo.time_horizon`` decisions.
+        max_cycles: decisions after which an episode is truncated (``None``: the game's
+            default).
+        decision_interval: physics frames per decision, the action held in between
+            (``None``: the game's default — tennis 5 frames of 0.02 s, ML-Agents'
+            default; soccer 1 frame of 0.1 s).
     """
 
     name: str = MISSING
     num_envs: int | None = None
     max_cycles: int | None = None
+    decision_interval: int | None = None
 
     def game_options(self) -> dict[str, Any]:
         """The keyword options for the game constructor (unset fields omitted)."""
@@ -44,10 +50,14 @@ class TennisEnvConfig(EnvConfig):
     Attributes:
         extended_obs: add teammate distance and velocity difference to both observations
             (worker 8 → 12, manager 10 → 14), the paper's "extended observation" variant.
+        fault_penalty: who pays the -0.1 of a lost point: ``team`` (both rackets of the
+            team that lost it) or ``nearest`` (one racket, the rule of earlier versions);
+            ``None``: ``team``.
     """
 
     name: str = "tennis"
     extended_obs: bool = False
+    fault_penalty: str | None = None
 
 
 @dataclass

@@ -14,6 +14,7 @@ TensorDict contract of the design; for each group ``g`` with ``n_g`` agents:
 | ``"done" / "terminated" / "truncated"`` | bool | ``[N, 1]`` |
 | ``"step_count"`` | int64, steps of the episode before this observation (0 at reset) | ``[N, 1]`` |
 | ``"scoring_team"`` | int64, the team that scored on the step that led here, -1 if none | ``[N, 1]`` |
+| ``("info", k)`` | float32, each of the game's ``published_info`` entries (0 at reset) | ``[N, *shape]`` |
 
 All agents of a world end together, so the per-agent done flags equal the root
 ones and the root ``"_reset"`` mask is the only reset key needed for partial
@@ -41,6 +42,7 @@ ACTION = "action"
 REWARD = "reward"
 STEP_COUNT = "step_count"
 SCORING_TEAM = "scoring_team"
+INFO = "info"
 DONE_KEYS = ("done", "terminated", "truncated")
 
 
@@ -107,6 +109,14 @@ class BatchedGameEnv(EnvBase):
                 {key: Categorical(2, (n, k, 1), dtype=torch.bool) for key in DONE_KEYS},
                 shape=(n, k),
             )
+        if game.published_info:
+            observation[INFO] = Composite(
+                {
+                    key: Unbounded((n, *shape), dtype=torch.float32)
+                    for key, shape in game.published_info.items()
+                },
+                shape=(n,),
+            )
         observation[STEP_COUNT] = Bounded(0, game.max_cycles, (n, 1), dtype=torch.int64)
         observation[SCORING_TEAM] = Bounded(-1, 1, (n, 1), dtype=torch.int64)
         for key in DONE_KEYS:
@@ -124,7 +134,7 @@ class BatchedGameEnv(EnvBase):
         self.game.reset(mask)
         n = self.game.num_worlds
         no = torch.zeros(n, dtype=torch.bool)
-        return self._output(no, no, np.full(n, -1, dtype=np.int64), rewards=None)
+        return self._output(no, no, np.full(n, -1, dtype=np.int64), rewards=None, info=None)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         actions = {}
@@ -139,6 +149,7 @@ class BatchedGameEnv(EnvBase):
             torch.from_numpy(outcome.truncated),
             outcome.scoring_team,
             rewards=outcome.rewards,
+            info=outcome.info,
         )
 
     def _set_seed(self, seed: int | None) -> None:
@@ -151,6 +162,7 @@ class BatchedGameEnv(EnvBase):
         truncated: torch.Tensor,
         scoring_team: np.ndarray,
         rewards: dict[str, np.ndarray] | None,
+        info: dict[str, np.ndarray] | None,
     ) -> TensorDictBase:
         """The TensorDict of one reset or step (observations, dones, rewards)."""
         n = self.game.num_worlds
@@ -177,5 +189,17 @@ class BatchedGameEnv(EnvBase):
             out[spec.name] = TensorDict(entry, batch_size=(n, k))
         out[STEP_COUNT] = torch.from_numpy(self.game.step_count.copy()).view(n, 1)
         out[SCORING_TEAM] = torch.from_numpy(scoring_team.astype(np.int64, copy=False)).view(n, 1)
+        if self.game.published_info:
+            out[INFO] = TensorDict(
+                {
+                    key: torch.zeros((n, *shape))
+                    if info is None
+                    else torch.from_numpy(
+                        np.asarray(info[key], dtype=np.float32).reshape(n, *shape)
+                    )
+                    for key, shape in self.game.published_info.items()
+                },
+                batch_size=(n,),
+            )
         result = TensorDict(out, batch_size=(n,))
         return result if self.device == torch.device("cpu") else result.to(self.device)

@@ -17,14 +17,16 @@ won the point or goal, ``-1`` if none. A match is won by the first team to
 
 **Outcome statistics** (:class:`MatchResult`): wins, draws and losses from the home
 policy's view, each rate with its 95% Wilson interval (:func:`~rlhc.evaluation.stats.wilson_interval`),
-the mean points of both sides and the mean match length.
+the share of all points the home side won (Wilson interval over points), the mean
+points of both sides, the mean match length, and the game's per-team events per point
+(tennis: ``hits_over_net_by_team``, the hits over the net of each side per point).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -77,6 +79,8 @@ class MatchResult:
         home_side: ``[M]`` the team (0/1) the home policy played in each match.
         home_points: ``[M]`` points of the home side; ``away_points`` likewise.
         steps: ``[M]`` match length in env steps.
+        events: per-team event counts of the game (its ``published_info`` entries of
+            shape ``(2,)``), each ``[M, 2]``: home, away.
     """
 
     home: str
@@ -85,6 +89,7 @@ class MatchResult:
     home_points: np.ndarray
     away_points: np.ndarray
     steps: np.ndarray
+    events: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def outcomes(self) -> np.ndarray:
@@ -109,6 +114,14 @@ class MatchResult:
             summary[f"{rate}_rate"] = count / n if n else math.nan
             summary[f"{rate}_rate_ci"] = [low, high]
         summary["score"] = float(self.scores.mean()) if n else math.nan
+        won, played = int(self.home_points.sum()), int((self.home_points + self.away_points).sum())
+        summary["points_won_rate"] = won / played if played else math.nan
+        summary["points_won_rate_ci"] = list(wilson_interval(won, played, confidence))
+        for key, counts in self.events.items():
+            summary[f"{key}_per_point"] = {
+                side: float(counts[:, column].sum() / played) if played else math.nan
+                for column, side in enumerate(("home", "away"))
+            }
         summary["home_points_mean"] = float(self.home_points.mean()) if n else math.nan
         summary["away_points_mean"] = float(self.away_points.mean()) if n else math.nan
         summary["length_mean"] = float(self.steps.mean()) if n else math.nan
@@ -187,6 +200,11 @@ def play_matches(
     record_home = np.zeros(matches, dtype=np.int64)
     record_away = np.zeros(matches, dtype=np.int64)
     record_steps = np.zeros(matches, dtype=np.int64)
+    # Per-team events of the game (e.g. tennis hits over the net), by team while
+    # playing and by side (home, away) once recorded.
+    team_events = [key for key, shape in env.game.published_info.items() if shape == (2,)]
+    event_counts = {key: np.zeros((k, 2)) for key in team_events}
+    record_events = {key: np.zeros((matches, 2)) for key in team_events}
     next_match = k
     exploration = ExplorationType.DETERMINISTIC if deterministic else ExplorationType.RANDOM
     tensordict = env.reset()
@@ -199,6 +217,8 @@ def play_matches(
             tensordict = env.step(tensordict)
             scoring = tensordict["next", "scoring_team"].view(k).numpy()
             done = tensordict["next", "done"].view(k).numpy()
+            for key, counts in event_counts.items():
+                counts += tensordict["next", "info", key].view(k, 2).numpy()
             tensordict = step_mdp(tensordict)
             for team in (0, 1):
                 points[:, team] += scoring == team
@@ -211,6 +231,9 @@ def play_matches(
                 record_home[index] = points[finished, sides]
                 record_away[index] = points[finished, 1 - sides]
                 record_steps[index] = match_steps[finished]
+                for key, counts in event_counts.items():
+                    record_events[key][index, 0] = counts[finished, sides]
+                    record_events[key][index, 1] = counts[finished, 1 - sides]
                 # Finished worlds take the next unplayed matches, in world order.
                 worlds = np.flatnonzero(finished)
                 match_of_world[worlds] = next_match + np.arange(len(worlds))
@@ -219,11 +242,15 @@ def play_matches(
                 on_step(tensordict, points, match_steps)
             points[over] = 0
             match_steps[over] = 0
+            for counts in event_counts.values():
+                counts[over] = 0
             reset = done | over
             if reset.any():
                 tensordict.set("_reset", torch.from_numpy(reset).view(k, 1))
                 tensordict = env.reset(tensordict)
-    return MatchResult(names[0], names[1], home_side, record_home, record_away, record_steps)
+    return MatchResult(
+        names[0], names[1], home_side, record_home, record_away, record_steps, record_events
+    )
 
 
 def make_match_env(

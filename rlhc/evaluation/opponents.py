@@ -65,7 +65,10 @@ class ScriptedPolicy:
         if env.game.name == "tennis":
             from rlhc.envs.tennis.scripted import ScriptedTennisPolicy
 
-            tennis = ScriptedTennisPolicy(env.game.geometry)  # type: ignore[attr-defined]
+            tennis = ScriptedTennisPolicy(
+                env.game.geometry,  # type: ignore[attr-defined]
+                env.game.decision_interval,  # type: ignore[attr-defined]
+            )
             self._act = lambda td: {
                 "racket": torch.from_numpy(tennis(td["racket", "observation"].cpu().numpy()))
             }

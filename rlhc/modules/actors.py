@@ -2,7 +2,7 @@
 
 | action spec | head | distribution |
 |---|---|---|
-| ``Bounded`` ``[..., n_g, size]`` (tennis) | loc, scale (``NormalParamExtractor``) | ``TanhNormal`` squashed into the spec's bounds |
+| ``Bounded`` ``[..., n_g, size]`` (tennis) | loc, scale (``NormalParamExtractor``; the scale is ``cfg.initial_action_scale`` for a zero output) | ``TanhNormal`` squashed into the spec's bounds |
 | ``Categorical`` ``[..., n_g]`` (soccer) | logits | ``torch.distributions.Categorical`` (integer actions, as the spec) |
 
 Both write ``(g, "action")`` and its log-probability ``(g, "action_log_prob")``.
@@ -66,7 +66,11 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticAc
     out_spec = Composite({action_key: spec}, shape=env.full_action_spec.shape)
     if isinstance(spec, Bounded):
         size = int(spec.shape[-1])
-        net = nn.Sequential(group_mlp(n_inputs, 2 * size, n_agents, cfg), NormalParamExtractor())
+        # biased_softplus_b maps a zero output to scale b: the initial exploration noise.
+        extractor = NormalParamExtractor(
+            scale_mapping=f"biased_softplus_{cfg.initial_action_scale}"
+        )
+        net = nn.Sequential(group_mlp(n_inputs, 2 * size, n_agents, cfg), extractor)
         params = TensorDictModule(
             net, in_keys=[(group, OBSERVATION)], out_keys=[(group, LOC), (group, SCALE)]
         )

@@ -27,7 +27,9 @@ class NetworkConfig:
     Attributes:
         num_layers: hidden layers per MLP (``>= 1``).
         hidden_size: units per hidden layer (``>= 1``).
-        activation: one of :data:`ACTIVATIONS`.
+        activation: one of :data:`ACTIVATIONS` (``silu`` is ML-Agents 0.5's swish).
+        initial_action_scale: continuous actors: the Normal scale (before the tanh
+            squashing) for a zero scale output, i.e. at initialisation (``> 0``).
 
     Examples:
         >>> from rlhc.modules import NetworkConfig
@@ -38,12 +40,17 @@ class NetworkConfig:
     num_layers: int = 2
     hidden_size: int = 128
     activation: str = "tanh"
+    initial_action_scale: float = 1.0
 
     def __post_init__(self) -> None:
         if self.num_layers < 1:
             raise ValueError(f"num_layers must be >= 1, got {self.num_layers}")
         if self.hidden_size < 1:
             raise ValueError(f"hidden_size must be >= 1, got {self.hidden_size}")
+        if not self.initial_action_scale > 0 or self.initial_action_scale == float("inf"):
+            raise ValueError(
+                f"initial_action_scale must be a finite number > 0, got {self.initial_action_scale}"
+            )
         if self.activation not in ACTIVATIONS:
             raise ValueError(
                 f"unknown activation {self.activation!r}; choose one of {sorted(ACTIVATIONS)}"

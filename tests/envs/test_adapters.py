@@ -15,10 +15,9 @@ from rlhc.envs import make_env, make_game
 from rlhc.envs.base import (
     BatchedGame,
     DiscreteAction,
+    FrameOutcome,
     GroupObservation,
     GroupSpec,
-    StepOutcome,
-    validate_actions,
 )
 from rlhc.envs.pettingzoo_adapter import BatchedGameParallelEnv
 from rlhc.envs.tennis import env as tennis_aec_env
@@ -28,12 +27,24 @@ from rlhc.envs.torchrl_adapter import BatchedGameEnv
 
 class CountdownGame(BatchedGame):
     """Two groups with discrete actions; a world ends when action 1 is played by ``a_0``
-    (terminated, team 0 scores) or after ``max_cycles`` steps (truncated)."""
+    (terminated, team 0 scores) or after ``max_cycles`` decisions (truncated). Every frame
+    adds 1 to the observed value and pays ``b`` its action."""
 
     name = "countdown"
 
-    def __init__(self, num_worlds: int = 1, seed: int | None = None, max_cycles: int = 4) -> None:
-        super().__init__(num_worlds=num_worlds, max_cycles=max_cycles, seed=seed)
+    def __init__(
+        self,
+        num_worlds: int = 1,
+        seed: int | None = None,
+        max_cycles: int = 4,
+        decision_interval: int = 1,
+    ) -> None:
+        super().__init__(
+            num_worlds=num_worlds,
+            max_cycles=max_cycles,
+            seed=seed,
+            decision_interval=decision_interval,
+        )
         self.groups = (
             GroupSpec("a", ("a_0", "a_1"), 3, 5, DiscreteAction(2), (0, 1)),
             GroupSpec("b", ("b_0",), 2, 2, DiscreteAction(4), (1,)),
@@ -45,20 +56,17 @@ class CountdownGame(BatchedGame):
         self.value[mask] = self.rng.uniform(size=int(mask.sum()))
         self.step_count[mask] = 0
 
-    def step(self, actions: Mapping[str, np.ndarray]) -> StepOutcome:
-        checked = validate_actions(self.groups, actions, self.num_worlds)
-        self.step_count += 1
+    def advance(self, actions: Mapping[str, np.ndarray]) -> FrameOutcome:
         self.value += 1
-        terminated = checked["a"][:, 0] == 1
-        truncated = (self.step_count >= self.max_cycles) & ~terminated
-        return StepOutcome(
+        terminated = actions["a"][:, 0] == 1
+        return FrameOutcome(
             rewards={
                 "a": np.stack([terminated, terminated], axis=1) * np.float32([1.0, -1.0]),
-                "b": checked["b"].astype(np.float32),
+                "b": actions["b"].astype(np.float32),
             },
             terminated=terminated,
-            truncated=truncated,
             scoring_team=np.where(terminated, 0, -1),
+            info={"frames": np.ones(self.num_worlds, dtype=np.int64)},
         )
 
     def observe(self) -> dict[str, GroupObservation]:

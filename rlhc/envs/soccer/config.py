@@ -22,17 +22,20 @@ class SoccerOptions:
     """Rules, pitch and physics of the 2 vs 2 soccer game.
 
     Attributes:
-        max_cycles: steps after which an episode is truncated.
-        striker_time_reward: added to each striker's reward every step (paper: -0.001,
-            an incentive to score quickly).
-        goalie_time_reward: added to each goalie's reward every step (paper: +0.001,
+        max_cycles: decisions after which an episode is truncated.
+        decision_interval: physics frames of ``step_seconds`` per decision, the action
+            held in between (1: one 0.1 s frame per decision, the decision period of
+            ML-Agents' SoccerTwos, 5 frames of 0.02 s).
+        striker_time_reward: added to each striker's reward every decision (paper:
+            -0.001, an incentive to score quickly).
+        goalie_time_reward: added to each goalie's reward every decision (paper: +0.001,
             an incentive to keep the ball out for long).
         pitch_length: inner length of the pitch, goal line to goal line.
         pitch_width: inner width of the pitch, touch line to touch line.
         goal_width: width of the goal mouth, centred on each goal line.
         goal_depth: depth of the net box behind each goal line.
-        step_seconds: simulated time per environment step.
-        physics_substeps: pymunk steps per environment step (collision quality).
+        step_seconds: simulated time per physics frame.
+        physics_substeps: pymunk steps per frame (collision quality).
         player_radius: radius of every player's circle.
         ball_radius: radius of the ball.
         player_speed: speed of a forward or backward move.
@@ -49,6 +52,7 @@ class SoccerOptions:
     """
 
     max_cycles: int = 500
+    decision_interval: int = 1
     striker_time_reward: float = -0.001
     goalie_time_reward: float = 0.001
     pitch_length: float = 16.0
@@ -75,6 +79,14 @@ class SoccerOptions:
             raise ValueError(f"max_cycles must be an integer, got {self.max_cycles!r}")
         if isinstance(self.physics_substeps, bool) or not isinstance(self.physics_substeps, int):
             raise ValueError(f"physics_substeps must be an integer, got {self.physics_substeps!r}")
+        if (
+            isinstance(self.decision_interval, bool)
+            or not isinstance(self.decision_interval, int)
+            or self.decision_interval < 1
+        ):
+            raise ValueError(
+                f"decision_interval must be an integer >= 1, got {self.decision_interval!r}"
+            )
         for spec in fields(self):
             value = getattr(self, spec.name)
             if not isinstance(value, int | float) or not math.isfinite(value):

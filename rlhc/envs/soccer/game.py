@@ -21,7 +21,8 @@ goalie reward       +0.1 its team scores, -1 its team concedes, +0.001 every ste
 reward parts        ``StepOutcome.info``: ``striker_sparse_reward``, ``striker_time_reward``,
                     ``goalie_sparse_reward``, ``goalie_time_reward`` (``[N, 2]`` each)
 termination         a goal (``StepOutcome.scoring_team`` says whose)
-truncation          ``max_cycles`` steps (default 500)
+truncation          ``max_cycles`` decisions (default 500)
+decision            the action held for ``decision_interval`` frames of 0.1 s (default 1)
 state               ``float32 [28]``: ball (x, y, vx, vy), then per player in agent order
                     (x, y, vx, vy, cos θ, sin θ); absolute pitch frame
 =================== ========================================================================
@@ -41,10 +42,9 @@ import numpy as np
 from rlhc.envs.base import (
     BatchedGame,
     DiscreteAction,
+    FrameOutcome,
     GroupObservation,
     GroupSpec,
-    StepOutcome,
-    validate_actions,
 )
 from rlhc.envs.soccer.config import SoccerOptions
 from rlhc.envs.soccer.controls import GOALIE_ACTIONS, STRIKER_ACTIONS, Controls
@@ -107,7 +107,12 @@ class SoccerGame(BatchedGame):
 
     def __init__(self, num_worlds: int, seed: int | None = None, **options: Any) -> None:
         self.options = SoccerOptions.from_options(options)
-        super().__init__(num_worlds=num_worlds, max_cycles=self.options.max_cycles, seed=seed)
+        super().__init__(
+            num_worlds=num_worlds,
+            max_cycles=self.options.max_cycles,
+            seed=seed,
+            decision_interval=self.options.decision_interval,
+        )
         self.geometry = PitchGeometry.from_options(self.options)
         self.physics = SoccerPhysics(self.num_worlds, self.options)
         self.controls = Controls(self.options)
@@ -180,14 +185,9 @@ class SoccerGame(BatchedGame):
         self.physics.teleport(mask, positions, angles)
         self._observations = None
 
-    def step(self, actions: Mapping[str, np.ndarray]) -> StepOutcome:
-        """Advance every pitch one step; see the module docstring for the rules.
-
-        Raises:
-            ValueError: an unknown/missing group, a wrong shape, NaN, or an action out
-                of range (the message names the group and the values).
-        """
-        checked = validate_actions(self.groups, actions, self.num_worlds)
+    def advance(self, actions: Mapping[str, np.ndarray]) -> FrameOutcome:
+        """Advance every pitch one frame; see the module docstring for the rules."""
+        checked = actions
         physics = self.physics
         velocities, angular = self.controls.velocities(
             checked["striker"],
@@ -198,21 +198,14 @@ class SoccerGame(BatchedGame):
         )
         physics.drive(velocities, angular)
         physics.step()
-        self.step_count += 1
         self._observations = None
 
         scoring = scoring_team(physics.positions[:, BALL], self.geometry, self.options.ball_radius)
-        parts = rewards(scoring, self.options)
-        terminated = scoring >= 0
-        truncated = (self.step_count >= self.max_cycles) & ~terminated
+        parts = rewards(scoring, self.options, time_share=1.0 / self.decision_interval)
         info = {f"{role}_sparse_reward": parts.sparse[role] for role in ROLE_BODIES}
         info.update({f"{role}_time_reward": parts.time[role] for role in ROLE_BODIES})
-        return StepOutcome(
-            rewards=parts.total,
-            terminated=terminated,
-            truncated=truncated,
-            scoring_team=scoring,
-            info=info,
+        return FrameOutcome(
+            rewards=parts.total, terminated=scoring >= 0, scoring_team=scoring, info=info
         )
 
     # --- views ----------------------------------------------------------------------

@@ -88,12 +88,14 @@ class Rewards:
     time: dict[str, np.ndarray]
 
 
-def rewards(scoring: np.ndarray, options: SoccerOptions) -> Rewards:
-    """The rewards of every agent given which team scored this step.
+def rewards(scoring: np.ndarray, options: SoccerOptions, time_share: float = 1.0) -> Rewards:
+    """The rewards of every agent given which team scored this frame.
 
     Args:
         scoring: ``int64 [N]``, the scoring team or -1.
         options: the time terms.
+        time_share: the share of a decision's time term paid on this frame
+            (``1 / decision_interval``: the terms are per decision, as in ML-Agents).
 
     Examples:
         >>> parts = rewards(np.array([0, -1]), SoccerOptions(striker_time_reward=0.0))
@@ -113,6 +115,6 @@ def rewards(scoring: np.ndarray, options: SoccerOptions) -> Rewards:
         sparse[role] = (scored * SCORE_REWARD[role] + conceded * CONCEDE_REWARD[role]).astype(
             np.float32
         )
-        time[role] = np.full(scored.shape, time_terms[role], dtype=np.float32)
+        time[role] = np.full(scored.shape, time_terms[role] * time_share, dtype=np.float32)
         total[role] = sparse[role] + time[role]
     return Rewards(total=total, sparse=sparse, time=time)

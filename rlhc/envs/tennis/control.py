@@ -7,10 +7,14 @@ A racket's action is three numbers in ``[-1, 1]`` (values outside are clipped by
 |---|---|
 | 0 | horizontal speed: ``+1`` runs towards the net at ``racket_speed``, ``-1`` away |
 | 1 | jump: a positive value takes off at ``value * jump_speed`` if the racket stands on the ground |
-| 2 | paddle tilt: the paddle turns towards ``value * max_tilt`` (``+`` faces the net), at most ``max_spin`` rad/s |
+| 2 | paddle tilt: the paddle is set to ``value * max_tilt`` (``+`` faces the net) |
 
 Rackets are kinematic (infinite mass): they push the ball but are never pushed,
 so their motion is decided here, in closed form, and pymunk only carries it out.
+
+The tilt is *set*, not steered: the paper's 8-value observation shows no paddle
+angle, so an angle that lagged behind the action would be hidden state that no
+policy reading the observation could know.
 """
 
 from __future__ import annotations
@@ -19,6 +23,9 @@ import numpy as np
 
 from rlhc.envs.tennis.observations import TEAM_SIGN
 from rlhc.envs.tennis.physics import CourtGeometry
+
+#: Physics frames per decision: ML-Agents' ``numberOfActionsBetweenDecisions`` default.
+DECISION_INTERVAL = 5
 
 
 def racket_bounds(geometry: CourtGeometry) -> tuple[np.ndarray, np.ndarray]:
@@ -35,21 +42,21 @@ def drive_rackets(
     actions: np.ndarray,
     position: np.ndarray,
     jump_velocity: np.ndarray,
-    angle: np.ndarray,
     geometry: CourtGeometry,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The velocities that carry out ``actions`` over one step, and the new jump speed.
+    """The velocities that carry out ``actions`` over one frame, the paddle angles, and
+    the new jump speed.
 
     Args:
         actions: ``[N, 4, 3]`` in ``[-1, 1]``.
         position: ``[N, 4, 2]`` racket centres (court-local metres).
         jump_velocity: ``[N, 4]`` the rackets' vertical speed (ballistic while airborne).
-        angle: ``[N, 4]`` paddle angles (radians, absolute frame).
         geometry: the court.
 
     Returns:
-        ``(velocity [N, 4, 2], spin [N, 4], next_jump_velocity [N, 4])``: constant over
-        the step, they move each racket exactly to its next, in-bounds pose.
+        ``(velocity [N, 4, 2], angle [N, 4], next_jump_velocity [N, 4])``: the velocity,
+        constant over the frame, moves each racket exactly to its next in-bounds
+        position; the angle (radians, absolute frame) is the paddle's for the frame.
     """
     g = geometry
     dt = g.dt
@@ -67,8 +74,7 @@ def drive_rackets(
     vy = np.where(landed, 0.0, vy)
 
     # Team A tilts its paddle towards the net (+x) by turning clockwise; B is mirrored.
-    target = -sign * actions[..., 2] * g.max_tilt
-    spin = np.clip((target - angle) / dt, -g.max_spin, g.max_spin)
+    angle = -sign * actions[..., 2] * g.max_tilt
 
     velocity = np.stack([(next_x - x) / dt, (next_y - y) / dt], axis=-1)
-    return velocity, spin, vy
+    return velocity, angle, vy

@@ -3,11 +3,13 @@
 | | |
 |---|---|
 | agents | ``racket_0``, ``racket_1`` (team 0, left), ``racket_2``, ``racket_3`` (team 1, right); one group ``racket`` |
-| action | 3 continuous in ``[-1, 1]`` (clipped): move towards/away from the net, jump, paddle tilt — see :mod:`~rlhc.envs.tennis.control` |
+| action | 3 continuous in ``[-1, 1]`` (clipped): move towards/away from the net, jump, paddle tilt (sets the angle) — see :mod:`~rlhc.envs.tennis.control` |
+| decision | the action held for ``decision_interval`` physics frames of ``geometry.dt`` (default 5 × 0.02 s, ML-Agents' default) |
 | worker observation | 8 (12 with ``extended_obs``) — see :mod:`~rlhc.envs.tennis.observations` |
 | manager observation | 10 (14 with ``extended_obs``) |
-| rewards | ``+0.1`` hit over the net, ``-0.1`` miss / out / net — see :mod:`~rlhc.envs.tennis.rules` |
-| episode | one point (terminated), or ``max_cycles`` steps (truncated) |
+| rewards | ``+0.1`` to the racket whose hit crosses the net, ``-0.1`` to both rackets of the team that loses the point (``fault_penalty="team"``) — see :mod:`~rlhc.envs.tennis.rules` |
+| episode | one point (terminated), or ``max_cycles`` decisions (truncated; default 400 = 40 s) |
+| info | ``hits_over_net``: hits paid for crossing the net in the decision ``[N]``; ``hits_over_net_by_team``: the same per hitting team ``[N, 2]`` |
 | state | 24: ball x, y, vx, vy + per racket x, y, vx, vy, angle (absolute frame, scaled) |
 
 The serve alternates between the teams of a court: the ball is tossed, with a
@@ -25,12 +27,11 @@ import numpy as np
 from rlhc.envs.base import (
     BatchedGame,
     ContinuousAction,
+    FrameOutcome,
     GroupObservation,
     GroupSpec,
-    StepOutcome,
-    validate_actions,
 )
-from rlhc.envs.tennis.control import drive_rackets
+from rlhc.envs.tennis.control import DECISION_INTERVAL, drive_rackets
 from rlhc.envs.tennis.observations import (
     LENGTH_SCALE,
     TEAM_SIGN,
@@ -40,13 +41,15 @@ from rlhc.envs.tennis.observations import (
     worker_size,
 )
 from rlhc.envs.tennis.physics import CourtGeometry, TennisPhysics
-from rlhc.envs.tennis.rules import Rally, judge
+from rlhc.envs.tennis.rules import FAULT_PENALTIES, Rally, judge
 
 GROUP = "racket"
 AGENTS = ("racket_0", "racket_1", "racket_2", "racket_3")
 #: Where the rackets stand at the start of a point, in the team frame (back, front).
 HOME_X = np.array([-4.0, -1.8])
 STATE_SIZE = 24
+#: Decisions per point before truncation (40 s at 5 frames of 0.02 s).
+MAX_CYCLES = 400
 
 
 class TennisGame(BatchedGame):
@@ -55,9 +58,13 @@ class TennisGame(BatchedGame):
     Args:
         num_worlds: number of courts.
         seed: seed of the serve generator.
-        max_cycles: steps after which a point is truncated.
+        max_cycles: decisions after which a point is truncated.
         extended_obs: add the teammate's relative position and velocity to the
             observations (worker 12, manager 14).
+        decision_interval: physics frames (of ``geometry.dt``) per decision.
+        fault_penalty: who pays the ``-0.1`` of a lost point: ``"team"`` (both rackets
+            of the team that lost it, the default) or ``"nearest"`` (one racket: the
+            nearest to where the ball landed, or the last hitter).
         geometry: court sizes and physical constants (defaults: :class:`CourtGeometry`).
         **unknown: rejected with a ``ValueError`` naming them (a misspelt option
             must not pass silently).
@@ -65,30 +72,46 @@ class TennisGame(BatchedGame):
     Examples:
         >>> game = TennisGame(num_worlds=2, seed=0)
         >>> game.reset()
-        >>> outcome = game.step({"racket": np.zeros((2, 4, 3))})
+        >>> outcome = game.step({"racket": np.zeros((2, 4, 3))})  # 5 frames of 0.02 s
         >>> game.observe()["racket"].observation.shape
         (2, 4, 8)
     """
 
     name = "tennis"
+    published_info: ClassVar[dict[str, tuple[int, ...]]] = {
+        "hits_over_net": (),
+        "hits_over_net_by_team": (2,),
+    }
     metadata: ClassVar[dict[str, object]] = {"render_modes": ["rgb_array"], "render_fps": 25}
 
     def __init__(
         self,
         num_worlds: int = 1,
         seed: int | None = None,
-        max_cycles: int = 1000,
+        max_cycles: int = MAX_CYCLES,
         extended_obs: bool = False,
+        decision_interval: int = DECISION_INTERVAL,
+        fault_penalty: str = "team",
         geometry: CourtGeometry | None = None,
         **unknown: object,
     ) -> None:
         if unknown:
             raise ValueError(
-                f"unknown tennis option(s) {sorted(unknown)}; "
-                "known: max_cycles, extended_obs, geometry, seed, num_worlds"
+                f"unknown tennis option(s) {sorted(unknown)}; known: max_cycles, "
+                "extended_obs, decision_interval, fault_penalty, geometry, seed, num_worlds"
             )
-        super().__init__(num_worlds=num_worlds, max_cycles=max_cycles, seed=seed)
+        if fault_penalty not in FAULT_PENALTIES:
+            raise ValueError(
+                f"fault_penalty={fault_penalty!r}; allowed: {', '.join(FAULT_PENALTIES)}"
+            )
+        super().__init__(
+            num_worlds=num_worlds,
+            max_cycles=max_cycles,
+            seed=seed,
+            decision_interval=decision_interval,
+        )
         self.extended_obs = bool(extended_obs)
+        self.fault_penalty = fault_penalty
         self.geometry = geometry if geometry is not None else CourtGeometry()
         self.groups = (
             GroupSpec(
@@ -144,15 +167,16 @@ class TennisGame(BatchedGame):
         self.rally.credit_pending[mask] = False
         self.step_count[mask] = 0
 
-    def step(self, actions: Mapping[str, np.ndarray]) -> StepOutcome:
-        """Advance every court one step (``geometry.dt`` seconds); see the module table."""
-        action = validate_actions(self.groups, actions, self.num_worlds)[GROUP]
+    def advance(self, actions: Mapping[str, np.ndarray]) -> FrameOutcome:
+        """Advance every court one frame (``geometry.dt`` seconds); see the module table."""
+        action = actions[GROUP]
         p = self.physics
-        velocity, spin, self.jump_velocity = drive_rackets(
-            action, p.racket_position, self.jump_velocity, p.racket_angle, self.geometry
+        velocity, angle, self.jump_velocity = drive_rackets(
+            action, p.racket_position, self.jump_velocity, self.geometry
         )
         p.racket_velocity[:] = velocity
-        p.racket_spin[:] = spin
+        p.racket_angle[:] = angle
+        p.racket_spin[:] = 0.0
         previous_ball_x = p.ball_position[:, 0].copy()
         p.step()
         # The observed vertical speed is the ballistic one (0 once landed).
@@ -166,15 +190,16 @@ class TennisGame(BatchedGame):
             p.first_contact,
             p.contact_x,
             self.geometry.half_length,
+            self.fault_penalty,
         )
-        self.step_count += 1
-        truncated = (self.step_count >= self.max_cycles) & ~verdict.terminated
-        return StepOutcome(
+        return FrameOutcome(
             rewards={GROUP: verdict.rewards},
             terminated=verdict.terminated,
-            truncated=truncated,
             scoring_team=verdict.scoring_team,
-            info={"over_net": verdict.over_net},
+            info={
+                "hits_over_net": verdict.over_net,
+                "hits_over_net_by_team": verdict.over_net_by_team,
+            },
         )
 
     # --- views -----------------------------------------------------------------------

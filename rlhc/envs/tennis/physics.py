@@ -62,14 +62,14 @@ class CourtGeometry:
         racket_speed: top horizontal speed of a racket.
         jump_speed: take-off speed of a full jump.
         max_tilt: largest paddle tilt from horizontal (action ±1).
-        max_spin: largest paddle angular speed.
         gravity: downward acceleration of ball and rackets.
         ball_elasticity: restitution of the ball (multiplied with the other shape's).
         racket_elasticity: restitution of a paddle.
         max_ball_speed: the ball's speed is capped here after every step, which with
             ``substeps`` bounds its travel per physics step below the thinnest obstacle.
-        dt: duration of one env step.
-        substeps: physics steps per env step.
+        dt: duration of one physics frame (a decision holds its action for
+            ``decision_interval`` frames, see :class:`~rlhc.envs.tennis.game.TennisGame`).
+        substeps: pymunk steps per frame.
         court_spacing: distance between neighbouring courts' origins in the space.
     """
 
@@ -87,13 +87,12 @@ class CourtGeometry:
     racket_speed: float = 6.0
     jump_speed: float = 6.0
     max_tilt: float = 1.2
-    max_spin: float = 20.0
     gravity: float = 9.81
     ball_elasticity: float = 1.0
     racket_elasticity: float = 0.85
     max_ball_speed: float = 15.0
-    dt: float = 0.04
-    substeps: int = 2
+    dt: float = 0.02
+    substeps: int = 1
     court_spacing: float = 30.0
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rlhc.envs.tennis.control import DECISION_INTERVAL
 from rlhc.envs.tennis.observations import LENGTH_SCALE, VELOCITY_SCALE
 from rlhc.envs.tennis.physics import CourtGeometry
 
@@ -29,6 +30,8 @@ class ScriptedTennisPolicy:
 
     Args:
         geometry: the court the rackets play on (gravity, speeds, tilt range).
+        decision_interval: physics frames per decision of the game it plays (the
+            distance a racket covers before its next decision).
         split_x: team-frame x (metres) dividing the back and front rackets' zones.
         aim_x: team-frame x (metres) of the intended landing point, in the opponents' half.
         launch_speed_y: intended upward speed of the returned ball (m/s).
@@ -46,12 +49,14 @@ class ScriptedTennisPolicy:
     def __init__(
         self,
         geometry: CourtGeometry | None = None,
+        decision_interval: int = DECISION_INTERVAL,
         split_x: float = -3.0,
         aim_x: float = 3.0,
         launch_speed_y: float = 8.0,
         jump_below_speed: float = 8.0,
     ) -> None:
         self.geometry = geometry if geometry is not None else CourtGeometry()
+        self.decision_seconds = self.geometry.dt * decision_interval
         self.split_x = split_x
         self.aim_x = aim_x
         self.launch_speed_y = launch_speed_y
@@ -83,7 +88,7 @@ class ScriptedTennisPolicy:
         in_back_zone = landing_x < self.split_x
         in_charge = ours & (in_back_zone == _IS_BACK)
         target_x = np.where(in_charge, landing_x, _HOME_X)
-        step = g.racket_speed * g.dt
+        step = g.racket_speed * self.decision_seconds
         move = np.clip((target_x - racket_x) / step, -1.0, 1.0)
 
         # Paddle normal ∝ (outgoing direction - incoming direction): a mirror bounce.

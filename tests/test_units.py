@@ -1,0 +1,214 @@
+"""Table 3 in the units of ML-Agents 0.5: an update's size, the budget, the schedules.
+
+Buffer and minibatch count agent-experiences per group; the budget counts
+world-decisions; the number of worlds simulated at once changes none of them.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+from omegaconf import OmegaConf
+from tensordict import TensorDict
+from tensordict.nn import TensorDictModule
+
+from rlhc.builders import ConfigError, Layout, validate
+from rlhc.config import PPOConfig, TrainConfig, register_configs
+from rlhc.objectives import HierarchicalValueEstimator
+from rlhc.trainer import (
+    FINAL_CLIP_EPSILON,
+    FINAL_ENTROPY_COEF,
+    Trainer,
+    cut_trajectories,
+    schedules,
+)
+
+CONF = Path(__file__).resolve().parents[1] / "conf"
+register_configs()
+
+
+def load(*overrides: str) -> TrainConfig:
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        cfg = compose(config_name="train", overrides=list(overrides))
+    return OmegaConf.to_object(cfg)  # type: ignore[return-value]
+
+
+# --- the layout of an update ---------------------------------------------------------
+def test_paper_presets_in_agent_experiences() -> None:
+    tennis = Layout.from_config(load("env=tennis"))
+    # 10,240 racket-experiences / 4 rackets per court = 2,560 court-decisions.
+    assert (tennis.frames_per_batch, tennis.experiences_per_batch) == (2560, 10240)
+    assert (tennis.num_envs, tennis.steps_per_world) == (40, 64)
+    assert (tennis.minibatch_frames, tennis.minibatches) == (256, 10)
+    soccer = Layout.from_config(load("env=soccer"))
+    # 2,000 experiences per group / 2 agents (striker or goalie) per pitch.
+    assert (soccer.frames_per_batch, soccer.experiences_per_batch) == (1000, 2000)
+    assert soccer.steps_per_world <= 128
+    # 128 experiences = 64 pitch-decisions; 15 whole minibatches, remainder left out.
+    assert (soccer.minibatch_frames, soccer.minibatches) == (64, 15)
+
+
+@pytest.mark.parametrize("num_envs", [1, 8, 40, 64, 160, 2560])
+def test_the_number_of_worlds_changes_neither_the_update_nor_the_minibatch(num_envs: int) -> None:
+    layout = Layout.build(
+        buffer_size=10240, batch_size=1024, time_horizon=64, agents_per_world=4, num_envs=num_envs
+    )
+    assert layout.frames_per_batch == 2560
+    assert layout.num_envs * layout.steps_per_world == 2560
+    assert (layout.minibatch_frames, layout.minibatches) == (256, 10)
+
+
+def test_a_buffer_that_is_not_a_whole_number_of_world_decisions_rounds_up() -> None:
+    layout = Layout.build(
+        buffer_size=2001, batch_size=128, time_horizon=128, agents_per_world=2, num_envs=None
+    )
+    assert layout.frames_per_batch == math.ceil(2001 / 2)
+    assert layout.experiences_per_batch >= 2001
+
+
+@pytest.mark.parametrize("num_envs", [1, 2, 4, 8])
+def test_one_update_takes_exactly_the_documented_world_decisions(
+    num_envs: int, tmp_path: Path
+) -> None:
+    # 256 racket-experiences / 4 rackets = 64 court-decisions, whatever the courts.
+    cfg = load(
+        "env=tennis",
+        "experiment=smoke",
+        f"env.num_envs={num_envs}",
+        "algo.buffer_size=256",
+        "algo.batch_size=64",
+        "algo.max_steps=64",
+        "logger.summary_freq=64",
+    )
+    trainer = Trainer(cfg, tmp_path)
+    metrics = trainer.train()
+    assert (trainer.frames, trainer.iteration) == (64, 1)
+    assert metrics["frames"] == 64
+    assert metrics["racket/experiences"] == 256
+    assert metrics["updates"] == 1
+
+
+@pytest.mark.parametrize(
+    ("overrides", "key"),
+    [
+        (("algo.buffer_size=512", "algo.batch_size=1024"), "algo.buffer_size=512"),
+        (("algo.batch_size=1022",), "algo.batch_size=1022"),
+        (("env.num_envs=48",), "env.num_envs=48"),
+        (("env.decision_interval=0",), "env.decision_interval=0"),
+        (("env.fault_penalty=everyone",), "env.fault_penalty='everyone'"),
+        (("model.initial_action_scale=0",), "model.initial_action_scale=0"),
+        (("algo.lr=inf",), "algo.lr=inf"),
+        (("algo.entropy_coef=nan",), "algo.entropy_coef=nan"),
+        (("algo.clip_epsilon=-1",), "algo.clip_epsilon=-1"),
+    ],
+)
+def test_bad_settings_fail_before_training_naming_the_key(
+    overrides: tuple[str, ...], key: str, tmp_path: Path
+) -> None:
+    cfg = load("env=tennis", *overrides)
+    with pytest.raises(ConfigError, match="allowed") as error:
+        validate(cfg)
+        Layout.from_config(cfg)
+    assert key in str(error.value)
+
+
+# --- trajectories cut at the time horizon --------------------------------------------
+def test_a_cut_bootstraps_like_two_separate_segments() -> None:
+    """GAE over [N, 2H] with a cut at H equals GAE over the two halves on their own."""
+    torch.manual_seed(0)
+    horizon, n, agents = 4, 3, 2
+    value_net = torch.nn.Linear(1, 1)
+    estimator = HierarchicalValueEstimator(
+        worker_value_network=TensorDictModule(
+            value_net, in_keys=[("g", "observation")], out_keys=[("g", "worker_value")]
+        ),
+        manager_value_network=TensorDictModule(
+            value_net, in_keys=[("g", "manager_observation")], out_keys=[("g", "manager_value")]
+        ),
+        gamma=0.9,
+        lmbda=0.8,
+        fusion="local",
+        group="g",
+    )
+
+    def batch(steps: int, observation: torch.Tensor, reward: torch.Tensor) -> TensorDict:
+        false = torch.zeros(n, steps, agents, 1, dtype=torch.bool)
+        return TensorDict(
+            {
+                "g": {
+                    "observation": observation[:, :steps],
+                    "manager_observation": observation[:, :steps],
+                },
+                "next": {
+                    "g": {
+                        "observation": observation[:, 1 : steps + 1],
+                        "manager_observation": observation[:, 1 : steps + 1],
+                        "reward": reward[:, :steps],
+                        "done": false.clone(),
+                        "terminated": false.clone(),
+                    }
+                },
+            },
+            batch_size=[n, steps],
+        )
+
+    observation = torch.randn(n, 2 * horizon + 1, agents, 1)
+    reward = torch.randn(n, 2 * horizon, agents, 1)
+    whole = batch(2 * horizon, observation, reward)
+    cut_trajectories(whole, ["g"], horizon)
+    with torch.no_grad():
+        estimator(whole)
+        first = estimator(batch(horizon, observation, reward))
+        second = estimator(batch(horizon, observation[:, horizon:], reward[:, horizon:]))
+    expected = torch.cat([first["g", "advantage"], second["g", "advantage"]], dim=1)
+    torch.testing.assert_close(whole["g", "advantage"], expected)
+    # Without the cut the first half would see the second's rewards: it differs.
+    uncut = batch(2 * horizon, observation, reward)
+    with torch.no_grad():
+        estimator(uncut)
+    assert not torch.allclose(uncut["g", "advantage"][:, :horizon], expected[:, :horizon])
+
+
+def test_a_batch_within_the_horizon_is_not_cut() -> None:
+    done = torch.zeros(2, 8, 1, 1, dtype=torch.bool)
+    batch = TensorDict({"next": {"g": {"done": done}}}, batch_size=[2, 8])
+    cut_trajectories(batch, ["g"], 8)
+    assert not batch["next", "g", "done"].any()
+    cut_trajectories(batch, ["g"], 3)
+    assert batch["next", "g", "done"][0, :, 0, 0].tolist() == [
+        False, False, True, False, False, True, False, False,
+    ]  # fmt: skip
+
+
+# --- schedules -----------------------------------------------------------------------
+def test_lr_beta_and_epsilon_decay_linearly_over_the_budget() -> None:
+    algo = PPOConfig(max_steps=1000, lr=3e-4, entropy_coef=0.005, clip_epsilon=0.2)
+    assert schedules(algo, 0) == (3e-4, 0.005, 0.2)
+    lr, beta, epsilon = schedules(algo, 1000)
+    assert (lr, beta, epsilon) == pytest.approx((0.0, FINAL_ENTROPY_COEF, FINAL_CLIP_EPSILON))
+    lr, beta, epsilon = schedules(algo, 250)
+    assert lr == pytest.approx(3e-4 * 0.75)
+    assert beta == pytest.approx(0.005 + (FINAL_ENTROPY_COEF - 0.005) * 0.25)
+    assert epsilon == pytest.approx(0.2 - 0.1 * 0.25)
+    fixed = PPOConfig(
+        max_steps=1000, anneal_lr=False, anneal_entropy_coef=False, anneal_clip_epsilon=False
+    )
+    assert schedules(fixed, 999) == (fixed.lr, fixed.entropy_coef, fixed.clip_epsilon)
+
+
+def test_the_trainer_applies_the_schedules_to_the_losses(tmp_path: Path) -> None:
+    cfg = load("env=tennis", "experiment=smoke", "algo.max_steps=512")
+    trainer = Trainer(cfg, tmp_path)
+    metrics = trainer.train()
+    # Logged after the last update, which started at 448 of 512 frames.
+    lr, beta, epsilon = schedules(cfg.algo, 448)
+    assert metrics["lr"] == pytest.approx(lr)
+    assert metrics["entropy_coef"] == pytest.approx(beta)
+    assert metrics["clip_epsilon"] == pytest.approx(epsilon)
+    loss = trainer.losses["racket"]
+    assert float(loss.entropy_coeff) == pytest.approx(beta)
+    assert float(loss.clip_epsilon) == pytest.approx(epsilon)
