@@ -258,3 +258,29 @@ def test_torchrl_pettingzoo_wrapper_accepts_the_parallel_env(
     rollout = env.rollout(3)
     assert rollout[group, "info", "manager_observation"].shape[-1] == manager_size
     assert (rollout["next", group, "info", "scoring_team"] == -1).all()
+
+
+# --- decisions of several frames -----------------------------------------------------------
+def test_a_decision_sums_its_frames_and_stops_paying_once_a_world_ends() -> None:
+    game = CountdownGame(num_worlds=2, seed=0, max_cycles=3, decision_interval=3)
+    # World 0: a_0 plays 1, the episode ends on the decision's first frame;
+    # world 1 plays on for all three frames.
+    actions = {"a": np.array([[1, 0], [0, 0]]), "b": np.array([[2], [3]])}
+    outcome = game.step(actions)
+    np.testing.assert_array_equal(outcome.terminated, [True, False])
+    np.testing.assert_array_equal(outcome.rewards["b"], [[2.0], [9.0]])
+    np.testing.assert_array_equal(outcome.rewards["a"], [[1.0, -1.0], [0.0, 0.0]])
+    np.testing.assert_array_equal(outcome.scoring_team, [0, -1])
+    np.testing.assert_array_equal(outcome.info["frames"], [1, 3])
+    np.testing.assert_array_equal(game.step_count, [1, 1])  # decisions, not frames
+    game.reset(np.array([True, False]))
+    for _ in range(2):
+        outcome = game.step({"a": np.zeros((2, 2), int), "b": np.zeros((2, 1), int)})
+    # max_cycles counts decisions: world 1 is truncated after its third.
+    np.testing.assert_array_equal(outcome.truncated, [False, True])
+
+
+@pytest.mark.parametrize("interval", [0, -1, 1.5, True])
+def test_a_bad_decision_interval_is_refused(interval: object) -> None:
+    with pytest.raises(ValueError, match="decision_interval"):
+        CountdownGame(num_worlds=1, decision_interval=interval)  # type: ignore[arg-type]

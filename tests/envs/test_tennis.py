@@ -303,3 +303,56 @@ def test_fuzz_random_and_extreme_actions_keep_the_world_sound() -> None:
         assert (np.abs(rackets[..., 0]) >= g.racket_net_gap - 1e-9).all()
         assert (rackets[..., 1] >= g.racket_ground_y - 1e-9).all()
         game.reset(outcome.terminated | outcome.truncated)
+
+
+def test_jump_takes_off_only_above_the_threshold() -> None:
+    game = TennisGame(num_worlds=1, seed=0, decision_interval=1)
+    g = game.geometry
+    for value, jumps in ((0.4, False), (g.jump_threshold, False), (0.6, True)):
+        game.reset()
+        action = np.zeros((1, 4, 3))
+        action[0, 0, 1] = value
+        game.step({"racket": action})
+        lifted = game.physics.racket_position[0, 0, 1] > g.racket_ground_y
+        assert lifted == jumps, value
+        if jumps:
+            # Take-off at value * jump_speed, then one frame of gravity.
+            expected = value * g.jump_speed - g.gravity * g.dt
+            assert game.physics.racket_velocity[0, 0, 1] == pytest.approx(expected)
+
+
+def test_tilt_sets_the_paddle_angle_within_one_frame() -> None:
+    """The angle is not hidden state: it follows the current action, whatever it was."""
+    game = TennisGame(num_worlds=1, seed=0, decision_interval=1)
+    g = game.geometry
+    for tilt in (1.0, -1.0, 0.25):
+        action = np.zeros((1, 4, 3))
+        action[..., 2] = tilt
+        game.step({"racket": action})
+        # Team A tilts towards +x by turning clockwise; team B is mirrored.
+        expected = tilt * g.max_tilt * np.array([-1.0, -1.0, 1.0, 1.0])
+        np.testing.assert_allclose(game.physics.racket_angle[0], expected, atol=1e-9)
+
+
+def test_a_decision_holds_the_action_for_its_frames() -> None:
+    """One decision of k frames = k one-frame decisions with the same action."""
+    held = TennisGame(num_worlds=3, seed=4, decision_interval=5)
+    framed = TennisGame(num_worlds=3, seed=4, decision_interval=1)
+    rng = np.random.default_rng(0)
+    compared = 0
+    for _ in range(6):
+        action = rng.uniform(-1, 1, (3, 4, 3))
+        outcome = held.step({"racket": action})
+        rewards = np.zeros((3, 4), dtype=np.float32)
+        for _ in range(5):
+            frame = framed.step({"racket": action})
+            rewards += frame.rewards["racket"]
+            if (frame.terminated | outcome.terminated).any():
+                break
+        if outcome.terminated.any():
+            break
+        np.testing.assert_allclose(held.state(), framed.state(), atol=1e-9)
+        np.testing.assert_allclose(outcome.rewards["racket"], rewards, atol=1e-7)
+        compared += 1
+    assert compared >= 3
+    np.testing.assert_array_equal(held.step_count * 5, framed.step_count)

@@ -6,7 +6,7 @@ A racket's action is three numbers in ``[-1, 1]`` (values outside are clipped by
 | index | meaning |
 |---|---|
 | 0 | horizontal speed: ``+1`` runs towards the net at ``racket_speed``, ``-1`` away |
-| 1 | jump: a positive value takes off at ``value * jump_speed`` if the racket stands on the ground |
+| 1 | jump: a value above ``jump_threshold`` (0.5) takes off at ``value * jump_speed`` if the racket stands on the ground |
 | 2 | paddle tilt: the paddle is set to ``value * max_tilt`` (``+`` faces the net) |
 
 Rackets are kinematic (infinite mass): they push the ball but are never pushed,
@@ -66,7 +66,9 @@ def drive_rackets(
     next_x = np.clip(x + actions[..., 0] * sign * g.racket_speed * dt, low, high)
 
     grounded = y <= g.racket_ground_y + 1e-6
-    take_off = grounded & (actions[..., 1] > 0)
+    # A dead zone, as in Unity's tennis (jump when the action exceeds 0.5): a policy
+    # whose jump output hovers around 0 does not hop on every other decision.
+    take_off = grounded & (actions[..., 1] > g.jump_threshold)
     vy = np.where(take_off, actions[..., 1] * g.jump_speed, jump_velocity) - g.gravity * dt
     next_y = y + vy * dt
     landed = next_y <= g.racket_ground_y

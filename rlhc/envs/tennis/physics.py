@@ -61,7 +61,9 @@ class CourtGeometry:
         racket_wall_gap: closest a racket's centre may come to a wall.
         racket_speed: top horizontal speed of a racket.
         jump_speed: take-off speed of a full jump.
-        max_tilt: largest paddle tilt from horizontal (action ±1).
+        jump_threshold: the jump action takes off only above this value.
+        max_tilt: largest paddle tilt from horizontal (action ±1): 55°, as in Unity's
+            tennis.
         gravity: downward acceleration of ball and rackets.
         ball_elasticity: restitution of the ball (multiplied with the other shape's).
         racket_elasticity: restitution of a paddle.
@@ -86,7 +88,8 @@ class CourtGeometry:
     racket_wall_gap: float = 0.8
     racket_speed: float = 6.0
     jump_speed: float = 6.0
-    max_tilt: float = 1.2
+    jump_threshold: float = 0.5
+    max_tilt: float = 0.96
     gravity: float = 9.81
     ball_elasticity: float = 1.0
     racket_elasticity: float = 0.85
