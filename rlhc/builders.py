@@ -16,6 +16,7 @@ from torchrl.envs import Compose, EnvBase, RewardSum, TransformedEnv, VecNormV2
 from rlhc.config import TrainConfig
 from rlhc.envs import make_env, make_game
 from rlhc.envs.tennis.rules import FAULT_PENALTIES
+from rlhc.league import validate_league
 from rlhc.modules import NetworkConfig, make_actor, make_manager_critic, make_worker_critic
 from rlhc.objectives import FUSIONS, HierarchicalPPOLoss, make_ppo_loss
 
@@ -81,6 +82,9 @@ def validate(cfg: TrainConfig) -> None:
             raise ConfigError(
                 f"{name}={number}; allowed: a finite number in {bracket}{low}, {high})"
             )
+    problems = validate_league(cfg.league)
+    if problems:
+        raise ConfigError("; ".join(problems))
     interval = cfg.env.decision_interval
     if interval is not None and interval < 1:
         raise ConfigError(

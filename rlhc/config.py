@@ -15,6 +15,7 @@ from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING
 
 from rlhc.envs.config import SoccerEnvConfig, TennisEnvConfig
+from rlhc.league import LeagueConfig
 
 
 @dataclass
@@ -148,6 +149,8 @@ class TrainConfig:
         algo: PPO hyperparameters (Table 3 per env, group ``table3`` chooses them).
         model: the networks (group ``model``).
         logger: metrics backends (group ``logger``).
+        league: who the learning team plays in each world (group ``league``; beyond the
+            paper: ``league=self_play``, pure self-play, is the paper's).
         seed: seeds torch, numpy and the game.
         checkpoint_freq: save a checkpoint after every update that crosses a multiple of
             this many world-decisions (and always at the end).
@@ -164,6 +167,7 @@ class TrainConfig:
     algo: PPOConfig = field(default_factory=PPOConfig)
     model: ModelConfig = field(default_factory=ModelConfig)
     logger: LoggerConfig = field(default_factory=LoggerConfig)
+    league: LeagueConfig = field(default_factory=LeagueConfig)
     seed: int = 0
     checkpoint_freq: int = 500_000
     resume: str | None = None
@@ -182,3 +186,4 @@ def register_configs() -> None:
     cs.store(group="critic", name="critic_schema", node=CriticConfig)
     cs.store(group="model", name="model_schema", node=ModelConfig)
     cs.store(group="logger", name="logger_schema", node=LoggerConfig)
+    cs.store(group="league", name="league_schema", node=LeagueConfig)

@@ -25,7 +25,7 @@ import numpy as np
 import torch
 from omegaconf import OmegaConf
 from tensordict import TensorDictBase
-from tensordict.nn import TensorDictSequential
+from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 from torchrl.collectors import Collector
 from torchrl.envs import EnvBase, TransformedEnv
 from tqdm import tqdm
@@ -36,6 +36,7 @@ from rlhc.builders import (
     group_names,
     make_agents,
     make_training_env,
+    network_config,
     validate,
 )
 from rlhc.checkpoint import (
@@ -48,7 +49,9 @@ from rlhc.checkpoint import (
 from rlhc.config import PPOConfig, TrainConfig
 from rlhc.envs import make_env
 from rlhc.envs.base import BatchedGame
+from rlhc.league import LEARNER, LEARNER_TEAM, OPPONENT, League, LeaguePolicy
 from rlhc.loggers import MetricLogger
+from rlhc.modules import make_actor
 from rlhc.objectives import LOSS_KEYS
 
 #: Where ML-Agents 0.5 decays the entropy coefficient and the clip range to (linearly
@@ -97,6 +100,40 @@ def schedules(algo: PPOConfig, frames: int) -> tuple[float, float, float]:
     if algo.anneal_clip_epsilon:
         clip_epsilon += (FINAL_CLIP_EPSILON - clip_epsilon) * progress
     return lr, entropy_coef, clip_epsilon
+
+
+def learner_weight(data: TensorDictBase, group: str) -> torch.Tensor:
+    """``float [B, n_g]``: 1 where the learning policy chose the action, else 0.
+
+    All ones without a league; in a league world the opponent team's agents weigh 0,
+    so their experiences carry no gradient and no statistics.
+    """
+    learner = data.get((group, LEARNER), None)
+    if learner is None:
+        return torch.ones(data[group, "action_log_prob"].shape[: data.ndim + 1])
+    return learner.reshape(*learner.shape[: data.ndim + 1]).float()
+
+
+def weighted_mean(value: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
+    """The mean of ``value`` (a per-sample ``[B, n_g]`` term, or a scalar) under ``weight``."""
+    if value.dim() == 0:
+        return value
+    return (value.reshape(weight.shape) * weight).sum() / weight.sum().clamp_min(1.0)
+
+
+def standardise_advantage(data: TensorDictBase, group: str, weight: torch.Tensor) -> None:
+    """Standardise ``(group, "advantage")`` of a minibatch in place, per agent slot.
+
+    Over the experiences of weight 1 only (all of them without a league), as TorchRL's
+    MAPPO does per slot; the losses are built with their own normalisation off.
+    """
+    advantage = data[group, "advantage"]
+    shaped = advantage.reshape(weight.shape)
+    count = weight.sum(dim=0).clamp_min(1.0)
+    mean = (shaped * weight).sum(dim=0) / count
+    var = (((shaped - mean) ** 2) * weight).sum(dim=0) / count
+    standard = (shaped - mean) / (var.sqrt() + 1e-8)
+    data.set((group, "advantage"), standard.reshape(advantage.shape))
 
 
 def cut_trajectories(batch: TensorDictBase, groups: list[str], horizon: int) -> None:
@@ -156,7 +193,20 @@ class Trainer:
         )
         self.groups = group_names(self.env)
         self.actors, self.losses = make_agents(cfg, self.env)
+        for loss in self.losses.values():
+            # Per-sample terms, reduced here under the learner weights (league worlds),
+            # and advantages standardised here over the learner's experiences only.
+            loss.reduction = "none"
+            loss.normalize_advantage = False
         self.policy = TensorDictSequential(*self.actors.values())
+        self.league: League | None = None
+        self.collection_policy: TensorDictModuleBase = self.policy
+        if cfg.league.active:
+            self.league = League(cfg.league, self.layout.num_envs, cfg.seed)
+            net = network_config(cfg)
+            self.collection_policy = LeaguePolicy(
+                self.policy, self.league, self.env, lambda g: make_actor(self.env, g, net)
+            )
         # fused: one kernel over all parameters (on CPU too), ~9% of a soccer update.
         self.parameters = self._parameters()
         self.optimizer = torch.optim.Adam(self.parameters, lr=cfg.algo.lr, fused=True)
@@ -185,7 +235,7 @@ class Trainer:
             return last_metrics
         collector = Collector(
             self.env,
-            self.policy,
+            self.collection_policy,
             frames_per_batch=self.layout.frames_per_batch,
             total_frames=math.ceil(remaining / self.layout.frames_per_batch)
             * self.layout.frames_per_batch,
@@ -207,6 +257,8 @@ class Trainer:
             for batch in collector:
                 collect_time = time.perf_counter() - collect_start
                 self._collect_episode_stats(batch, episodes)
+                if self.league is not None:
+                    self._record_league(batch)
                 update_start = time.perf_counter()
                 self._set_schedules()
                 for name, value in self._update(batch).items():
@@ -215,6 +267,8 @@ class Trainer:
 
                 previous, self.frames = self.frames, self.frames + batch.numel()
                 self.iteration += 1
+                if self.league is not None and self.iteration % cfg.league.snapshot_interval == 0:
+                    self.league.add_snapshot(self.actors)
                 self.wall_time = time.perf_counter() - start
                 summary["env_steps_per_s"].append(batch.numel() / collect_time)
                 summary["train_frames_per_s"].append(batch.numel() / (collect_time + update_time))
@@ -255,20 +309,47 @@ class Trainer:
         for _ in range(algo.epochs):
             # As ML-Agents 0.5: whole minibatches only, the shuffled remainder left out.
             for index in torch.randperm(flat.numel())[:used].split(layout.minibatch_frames):
-                minibatch = flat[index]
-                total = torch.zeros(())
-                for group, loss in self.losses.items():
-                    out = loss(minibatch)
-                    total = total + sum(out[term] for term in LOSS_KEYS)
-                    for key in LOSS_DIAGNOSTICS:
-                        if key in out:
-                            stats[f"{group}/{key}"].append(out[key].detach().float().mean().item())
+                total = self.minibatch_loss(flat[index], stats)
                 self.optimizer.zero_grad(set_to_none=True)
                 total.backward()
                 grad_norm = torch.nn.utils.clip_grad_norm_(self.parameters, algo.max_grad_norm)
                 stats["grad_norm"].append(grad_norm.item())
                 self.optimizer.step()
         return {name: float(np.mean(values)) for name, values in stats.items()}
+
+    def minibatch_loss(
+        self, minibatch: TensorDictBase, stats: dict[str, list[float]] | None = None
+    ) -> torch.Tensor:
+        """The summed PPO loss of every group on a minibatch (advantages already in it).
+
+        Every term is averaged under :func:`learner_weight`: an experience that an
+        opponent chose (a league world) adds nothing. Diagnostics go to ``stats``.
+        """
+        total = torch.zeros(())
+        for group, loss in self.losses.items():
+            weight = learner_weight(minibatch, group)
+            if self.cfg.algo.normalize_advantage:
+                standardise_advantage(minibatch, group, weight)
+            out = loss(minibatch)
+            total = total + sum(weighted_mean(out[term], weight) for term in LOSS_KEYS)
+            if stats is not None:
+                for key in LOSS_DIAGNOSTICS:
+                    if key in out:
+                        value = weighted_mean(out[key].detach().float(), weight)
+                        stats[f"{group}/{key}"].append(value.item())
+        return total
+
+    def _record_league(self, batch: TensorDictBase) -> None:
+        """Feed the results of the episodes that ended against league opponents to Elo."""
+        assert self.league is not None
+        done = batch["next", "done"].squeeze(-1)
+        if not done.any():
+            return
+        opponent = batch[OPPONENT].squeeze(-1)[done].numpy()
+        learner_team = batch[LEARNER_TEAM].squeeze(-1)[done].numpy()
+        scoring = batch["next", "scoring_team"].squeeze(-1)[done].numpy()
+        scores = np.where(scoring < 0, 0.5, (scoring == learner_team).astype(float))
+        self.league.record(opponent, scores)
 
     # --- metrics --------------------------------------------------------------------
     def _collect_episode_stats(
@@ -305,6 +386,8 @@ class Trainer:
             else:
                 metrics[name] = torch.cat(chunks).mean().item()
         metrics["episodes"] = count
+        if self.league is not None:
+            metrics.update(self.league.metrics())
         metrics["frames"] = float(self.frames)
         for group in self.groups:
             metrics[f"{group}/experiences"] = float(self.frames * self.layout.agents_per_world)
@@ -360,6 +443,7 @@ class Trainer:
             "optimizer": self.optimizer.state_dict(),
             "env_transform": self.env.transform.state_dict(),
             "game_rng": self._game.rng.bit_generator.state if self._game else None,
+            "league": self.league.state_dict() if self.league is not None else None,
             "rng": rng_states(),
         }
 
@@ -375,6 +459,8 @@ class Trainer:
         self.env.transform.load_state_dict(state["env_transform"])
         if self._game is not None and state["game_rng"] is not None:
             self._game.rng.bit_generator.state = state["game_rng"]
+        if self.league is not None and state.get("league") is not None:
+            self.league.load_state_dict(state["league"])
         set_rng_states(state["rng"])
         self.frames = int(state["frames"])
         self.iteration = int(state["iteration"])

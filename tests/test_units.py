@@ -212,3 +212,23 @@ def test_the_trainer_applies_the_schedules_to_the_losses(tmp_path: Path) -> None
     loss = trainer.losses["racket"]
     assert float(loss.entropy_coeff) == pytest.approx(beta)
     assert float(loss.clip_epsilon) == pytest.approx(epsilon)
+
+
+@pytest.mark.parametrize(
+    ("env", "frames", "worlds", "minibatch"),
+    [("tennis", 10240, 160, 1024), ("soccer", 2048, 16, 128)],
+)
+def test_the_frame_based_presets_rebuild_the_old_updates(
+    env: str, frames: int, worlds: int, minibatch: int
+) -> None:
+    """``table3=<env>_frames``: the updates of the study in docs/RESULTS.md."""
+    cfg = load(f"env={env}", f"table3={env}_frames")
+    layout = Layout.from_config(cfg)
+    assert (layout.frames_per_batch, layout.num_envs, layout.minibatch_frames) == (
+        frames, worlds, minibatch,
+    )  # fmt: skip
+    assert not cfg.algo.anneal_entropy_coef and not cfg.algo.anneal_clip_epsilon
+    assert cfg.model.activation == "tanh"
+    if env == "tennis":
+        assert (cfg.env.decision_interval, cfg.env.fault_penalty) == (2, "nearest")
+        assert cfg.algo.max_steps == 200_000

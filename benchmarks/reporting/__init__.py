@@ -12,6 +12,7 @@
 | :mod:`~reporting.markdown` | the sections on runs, settings, config drift and finals |
 | :mod:`~reporting.environment` | package versions and the machine the report ran on |
 | :mod:`~reporting.document` | the whole ``RESULTS.md`` from the sections |
+| :mod:`~reporting.learning` | ``benchmarks/learning.py``'s means over seeds, curves and table |
 
 The package lives in ``benchmarks/`` next to ``reproduce.py`` (a script, not a
 package) and imports it as a top-level module: whatever makes ``reporting``

@@ -1,0 +1,405 @@
+"""Learning benchmark: do trained teams play? Train a preset, then match it.
+
+Every (critic, seed) run of a preset trains as its own ``python -m rlhc.run`` process,
+``--jobs`` at a time, in ``<results>/<env>/<preset>/<critic>/seed_<k>/`` (``metrics.csv``,
+``.hydra/``, ``train.log``; ``checkpoints/`` and ``tb/`` are not committed). A run whose
+checkpoint reached the budget is skipped, an unfinished one resumes from its newest
+checkpoint. The final checkpoint of each run then plays ``--matches`` matches against the
+``random`` and the ``scripted`` team (half on each side, mode actions, seeded), in this
+process on one thread. Written next to the run directories:
+
+- ``<env>_<preset>.json``: per run its training command, code version, frames, wall time,
+  mean training speed, last logged metrics and both match summaries
+  (:meth:`rlhc.evaluation.matches.MatchResult.summary`); per critic the means over seeds.
+  Runs already in the file and not re-evaluated are kept (so critics can be run one at
+  a time); ``commands`` lists the invocations that rebuild the file.
+- ``<env>_<preset>.png``: learning curves against frames, one line per critic (mean over
+  seeds, TensorBoard-smoothed, shaded 95% t interval).
+
+``--max-steps N`` (a quick check) writes under the preset name ``<preset>_<N>``, so it
+never mixes with full runs.
+
+Usage::
+
+    python benchmarks/learning.py --env tennis --preset paper --critic ppo hierarchical --seeds 0 1 --jobs 2 --matches 100
+    python benchmarks/learning.py --env tennis --preset paper --critic ppo --seeds 0 --evaluate-only
+    python benchmarks/learning.py --env tennis --preset paper --critic ppo --max-steps 2560 --matches 4 --extra-overrides experiment=smoke
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from omegaconf import OmegaConf
+from reporting.learning import OPPONENTS, means_over_seeds, plot_curves, table
+from reproduce import code_version
+
+from rlhc.checkpoint import CHECKPOINT_DIR, load_checkpoint
+from rlhc.evaluation.matches import evaluate_against, make_match_env
+from rlhc.evaluation.opponents import make_team_policy
+from rlhc.plotting import METRICS_FILE, read_metrics
+from rlhc.trainer import seed_everything
+
+ROOT = Path(__file__).resolve().parents[1]
+CONF_DIR = ROOT / "conf"
+RESULTS = ROOT / "benchmarks" / "results" / "learning"
+CRITICS = tuple(sorted(path.stem for path in (CONF_DIR / "critic").glob("*.yaml")))
+#: Worlds playing matches at once: ``python -m rlhc.evaluate``'s default, so its command
+#: (recorded per run) reproduces the numbers.
+EVAL_WORLDS = 32
+#: Keys this script sets itself; ``--extra-overrides`` may not change them.
+RESERVED_KEYS = ("env", "critic", "seed", "algo.max_steps", "resume", "hydra.run.dir")
+LOGGING = ("logger.backends=[csv]", "logger.progress=false")
+
+#: env -> preset name -> overrides of the training config (after ``env=`` and ``critic=``).
+PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
+    "tennis": {"paper": ()},  # Table 3 as composed by conf/table3/tennis.yaml
+    "soccer": {"paper": ()},  # Table 3 as composed by conf/table3/soccer.yaml
+}
+
+
+@dataclass(frozen=True)
+class LearningRun:
+    """One (critic, seed) training run of a preset.
+
+    Attributes:
+        env: the game.
+        preset: the directory name of the preset (``<preset>`` or ``<preset>_<max_steps>``).
+        critic: a ``conf/critic`` choice.
+        seed: the training seed.
+        overrides: every ``rlhc.run`` override but the run directory and ``resume``.
+        results: the benchmark's results directory.
+    """
+
+    env: str
+    preset: str
+    critic: str
+    seed: int
+    overrides: tuple[str, ...]
+    results: Path
+
+    @property
+    def run_dir(self) -> Path:
+        return self.results / self.env / self.preset / self.critic / f"seed_{self.seed}"
+
+    def command(self, resume: bool = False) -> list[str]:
+        """The training command, run from the repository root with the project's python."""
+        tail = [f"resume={shown(self.run_dir)}"] if resume else []
+        run_dir = f"hydra.run.dir={shown(self.run_dir)}"
+        return ["python", "-m", "rlhc.run", *self.overrides, run_dir, *tail]
+
+
+def shown(path: Path) -> str:
+    """``path`` relative to the repository root when inside it (commands run from there)."""
+    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
+
+
+def override_key(override: str) -> str:
+    """``"+algo.lr=1e-3" -> "algo.lr"``."""
+    return override.split("=", 1)[0].lstrip("+~")
+
+
+def plan(args: argparse.Namespace) -> list[LearningRun]:
+    """The runs of the invocation, seed-major (a partial benchmark compares equal seeds)."""
+    budget = [f"algo.max_steps={args.max_steps}"] if args.max_steps else []
+    runs = []
+    for seed in args.seeds:
+        for critic in args.critic:
+            overrides = (
+                f"env={args.env}",
+                f"critic={critic}",
+                *PRESETS[args.env][args.preset],
+                f"seed={seed}",
+                *budget,
+                *LOGGING,
+                *args.extra_overrides,
+            )
+            runs.append(
+                LearningRun(args.env, preset_dir(args), critic, seed, overrides, args.results)
+            )
+    return runs
+
+
+def preset_dir(args: argparse.Namespace) -> str:
+    """The preset's directory name: ``<preset>``, or ``<preset>_<N>`` with ``--max-steps N``."""
+    return f"{args.preset}_{args.max_steps}" if args.max_steps else args.preset
+
+
+def budget_of(run: LearningRun) -> int:
+    """``algo.max_steps`` of the composed training config (what ``rlhc.run`` trains to)."""
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    from rlhc.config import register_configs
+
+    register_configs()
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+        return int(compose(config_name="train", overrides=list(run.overrides)).algo.max_steps)
+
+
+def check_overrides(run: LearningRun) -> None:
+    """Refuse to continue or report a run that was trained with other overrides.
+
+    Raises:
+        ValueError: the run's ``.hydra/overrides.yaml`` differs (both lists are named).
+    """
+    recorded_file = run.run_dir / ".hydra" / "overrides.yaml"
+    if not (run.run_dir / CHECKPOINT_DIR).is_dir() or not recorded_file.is_file():
+        return
+    recorded = [o for o in OmegaConf.load(recorded_file) if override_key(str(o)) != "resume"]
+    if recorded != list(run.overrides):
+        raise ValueError(
+            f"run directory {shown(run.run_dir)!r} was trained with overrides {recorded}, "
+            f"this invocation asks for {list(run.overrides)}; use another --results "
+            "directory, or the run's own overrides"
+        )
+
+
+def execute(run: LearningRun) -> tuple[LearningRun, int, float]:
+    """Train one run (resuming it if a checkpoint exists); its exit code and seconds."""
+    run.run_dir.mkdir(parents=True, exist_ok=True)
+    command = run.command(resume=(run.run_dir / CHECKPOINT_DIR).is_dir())
+    start = time.perf_counter()
+    with (run.run_dir / "train.log").open("a") as log:
+        log.write(f"code version: {code_version()}\ncommand: {shlex.join(command)}\n")
+        log.flush()
+        code = subprocess.call(
+            [sys.executable, *command[1:]], cwd=ROOT, stdout=log, stderr=subprocess.STDOUT
+        )
+    return run, code, time.perf_counter() - start
+
+
+def trained_frames(run: LearningRun) -> int | None:
+    """Frames of the run's newest checkpoint, ``None`` without one."""
+    try:
+        return int(load_checkpoint(run.run_dir)["frames"])
+    except FileNotFoundError:
+        return None
+
+
+def train(runs: Sequence[LearningRun], jobs: int) -> list[LearningRun]:
+    """Train the unfinished ``runs``, ``jobs`` at a time; the runs that failed."""
+    budgets = {run: budget_of(run) for run in runs}
+    todo = [run for run in runs if (trained_frames(run) or 0) < budgets[run]]
+    print(f"{len(todo)} of {len(runs)} runs to train", flush=True)
+    failed = []
+    with ThreadPoolExecutor(max_workers=jobs) as pool:
+        for future in as_completed([pool.submit(execute, run) for run in todo]):
+            run, code, seconds = future.result()
+            status = "ok" if code == 0 else f"FAILED ({code}, see {run.run_dir / 'train.log'})"
+            print(f"{run.critic}/seed_{run.seed}: {status} in {seconds:.0f} s", flush=True)
+            if code != 0:
+                failed.append(run)
+    return failed
+
+
+def evaluate(run: LearningRun, matches: int, seed: int) -> dict[str, Any]:
+    """Match summaries of the run's newest checkpoint against each of :data:`OPPONENTS`."""
+    checkpoint = load_checkpoint(run.run_dir)["path"]
+    summaries: dict[str, Any] = {}
+    for opponent in OPPONENTS:
+        # As ``python -m rlhc.evaluate``: seed, then build the env and both players.
+        seed_everything(seed)
+        env = make_match_env(run.env, min(EVAL_WORLDS, matches), seed, [checkpoint])
+        summaries[opponent] = evaluate_against(
+            make_team_policy(checkpoint, env), opponent, env, matches
+        )
+        env.close()
+    return summaries
+
+
+def record(run: LearningRun, args: argparse.Namespace) -> dict[str, Any]:
+    """The JSON entry of a trained run: training facts, last metrics, both evaluations."""
+    state = load_checkpoint(run.run_dir)
+    columns = read_metrics(run.run_dir / METRICS_FILE)
+    last = {name: float(values[-1]) for name, values in columns.items()}
+    final = {
+        name: value
+        for name, value in last.items()
+        if name in ("step", "episode_length")
+        or name.startswith("events/")
+        or name.endswith("/cumulative_reward")
+    }
+    log = run.run_dir / "train.log"
+    versions = [
+        line.removeprefix("code version: ").strip()
+        for line in (log.read_text().splitlines() if log.is_file() else [])
+        if line.startswith("code version: ")
+    ]
+    speed = columns.get("train_frames_per_s", np.array([np.nan]))
+    summaries = evaluate(run, args.matches, args.eval_seed)
+    evaluate_cli = {
+        opponent: shlex.join(
+            [
+                *("python", "-m", "rlhc.evaluate", f"env={run.env}"),
+                *(f"home={shown(run.run_dir)}", f"away={opponent}", f"matches={args.matches}"),
+                *(f"seed={args.eval_seed}", "threads=1"),
+            ]
+        )
+        for opponent in OPPONENTS
+    }
+    return {
+        "env": run.env,
+        "preset": args.preset,
+        "critic": run.critic,
+        "seed": run.seed,
+        "run_dir": shown(run.run_dir),
+        "command": shlex.join(run.command()),
+        "extra_overrides": list(args.extra_overrides),
+        "code_version": versions[-1] if versions else "unknown (no train.log)",
+        "training_code_versions": list(dict.fromkeys(versions)),
+        "max_steps": int(state["config"]["algo"]["max_steps"]),
+        "frames": int(state["frames"]),
+        "finished": int(state["frames"]) >= int(state["config"]["algo"]["max_steps"]),
+        "checkpoint": Path(state["path"]).name,
+        "wall_time_s": last.get("wall_time"),
+        "train_frames_per_s_mean": float(np.nanmean(speed)),
+        "final_metrics": final,
+        "evaluation": {
+            "opponents": list(OPPONENTS),
+            "matches": args.matches,
+            "seed": args.eval_seed,
+            "worlds": min(EVAL_WORLDS, args.matches),
+            "deterministic": True,
+            "swap_sides": True,
+            "threads": 1,
+            "code_version": code_version(),
+            "commands": evaluate_cli,
+        },
+        **{f"vs_{opponent}": summaries[opponent] for opponent in OPPONENTS},
+        "benchmark_command": benchmark_command(args),
+    }
+
+
+def benchmark_command(args: argparse.Namespace) -> str:
+    """The invocation that trains and evaluates these runs (``--jobs`` changes nothing)."""
+    words = ["python", "benchmarks/learning.py", "--env", args.env, "--preset", args.preset]
+    words += ["--critic", *args.critic, "--seeds", *map(str, args.seeds)]
+    words += ["--matches", str(args.matches), "--eval-seed", str(args.eval_seed)]
+    if args.max_steps:
+        words += ["--max-steps", str(args.max_steps)]
+    if args.extra_overrides:
+        words += ["--extra-overrides", *args.extra_overrides]
+    if args.results.resolve() != RESULTS:
+        words += ["--results", shown(args.results.resolve())]
+    return shlex.join(words)
+
+
+def write_results(new: Sequence[dict[str, Any]], args: argparse.Namespace) -> Path:
+    """Merge ``new`` into the preset's JSON (an entry of the same critic and seed is
+    replaced), write it with the means over seeds, draw its curves and print its table.
+
+    Returns:
+        The JSON file; the PNG is next to it.
+    """
+    path = args.results / f"{args.env}_{preset_dir(args)}.json"
+    kept = json.loads(path.read_text())["runs"] if path.is_file() else []
+    fresh = {(run["critic"], run["seed"]) for run in new}
+    runs = sorted(
+        [run for run in kept if (run["critic"], run["seed"]) not in fresh] + list(new),
+        key=lambda run: (run["critic"], run["seed"]),
+    )
+    means = means_over_seeds(runs)
+    document = {
+        "benchmark": "learning",
+        "env": args.env,
+        "preset": args.preset,
+        "preset_overrides": list(PRESETS[args.env][args.preset]),
+        "max_steps_override": args.max_steps,
+        "commands": sorted({run["benchmark_command"] for run in runs}),
+        "means_over_seeds": means,
+        "runs": runs,
+    }
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(document, indent=2) + "\n")
+    run_dirs: dict[str, list[Path]] = {}
+    for run in runs:
+        run_dirs.setdefault(run["critic"], []).append(ROOT / run["run_dir"])  # absolute stays
+    title = f"{args.env}, preset {preset_dir(args)}"
+    figure = plot_curves(run_dirs, args.env, title, path.with_suffix(".png"))
+    print("\n".join(table(runs, means)))
+    print(f"results: {shown(path)}\nfigure:  {shown(figure)}")
+    return path
+
+
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
+    """The command line; errors name the bad value and what is allowed."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--env", choices=sorted(PRESETS), default="tennis")
+    parser.add_argument("--preset", default="paper", help="a key of PRESETS[env]")
+    parser.add_argument("--critic", nargs="+", choices=CRITICS, default=["ppo", "hierarchical"])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0])
+    parser.add_argument("--jobs", type=int, default=2, help="training runs in parallel")
+    parser.add_argument("--matches", type=int, default=100, help="per opponent, even")
+    parser.add_argument("--eval-seed", type=int, default=0, help="seed of the matches")
+    parser.add_argument("--max-steps", type=int, default=None, help="budget (world-decisions)")
+    parser.add_argument("--extra-overrides", nargs="+", default=[], metavar="OVERRIDE")
+    parser.add_argument("--evaluate-only", action="store_true", help="skip training")
+    parser.add_argument("--results", type=Path, default=RESULTS, help="results directory")
+    args = parser.parse_args(argv)
+    if args.preset not in PRESETS[args.env]:
+        known = ", ".join(sorted(PRESETS[args.env]))
+        parser.error(f"--preset {args.preset!r} is not a preset of {args.env}; known: {known}")
+    if args.matches < 2 or args.matches % 2:
+        parser.error(f"--matches must be even and >= 2 (half on each side), got {args.matches}")
+    if args.max_steps is not None and args.max_steps < 1:
+        parser.error(f"--max-steps must be >= 1, got {args.max_steps}")
+    if args.jobs < 1:
+        parser.error(f"--jobs must be >= 1, got {args.jobs}")
+    if any(seed < 0 for seed in args.seeds):
+        parser.error(f"--seeds must be >= 0, got {args.seeds}")
+    reserved = [o for o in args.extra_overrides if override_key(o) in RESERVED_KEYS]
+    if reserved:
+        parser.error(
+            f"--extra-overrides {reserved} set keys this script sets itself "
+            f"({', '.join(RESERVED_KEYS)}); use --env, --critic, --seeds or --max-steps"
+        )
+    args.critic = list(dict.fromkeys(args.critic))
+    args.seeds = list(dict.fromkeys(args.seeds))
+    args.results = args.results.resolve()
+    return args
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Train, evaluate, write the JSON and the figure, print the table; the exit code."""
+    args = parse_args(argv)
+    runs = plan(args)
+    for run in runs:
+        check_overrides(run)
+    failed = [] if args.evaluate_only else train(runs, args.jobs)
+    torch.set_num_threads(1)
+    records = []
+    for run in runs:
+        if run in failed:
+            continue
+        if trained_frames(run) is None:
+            print(f"{run.critic}/seed_{run.seed}: no checkpoint in {shown(run.run_dir)}, skipped")
+            failed.append(run)
+            continue
+        print(f"{run.critic}/seed_{run.seed}: evaluating", flush=True)
+        entry = record(run, args)
+        if not entry["finished"]:
+            print(f"  note: unfinished ({entry['frames']} of {entry['max_steps']} frames)")
+        records.append(entry)
+    if not records:
+        print("nothing to report")
+        return 1
+    write_results(records, args)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,374 @@
+"""A league of opponents: who the learning team plays in each world (beyond the paper).
+
+The paper trains by symmetric self-play: both teams of every world are the learning
+policy. Pure self-play can settle into a joint habit (in soccer: neither team ever
+scores), which is why ML-Agents later added its *ghost* trainer: the learner plays
+frozen snapshots of its past selves and its Elo is tracked while it trains. Here a
+configurable share of the worlds of the training env puts the learning team against
+
+| kind | opponent |
+|---|---|
+| ``self`` | itself (both teams learn: the paper's self-play) |
+| ``snapshot`` | a frozen copy of a past learner, from a pool saved every ``snapshot_interval`` updates (sampled uniformly or by Elo) |
+| ``scripted`` | the game's scripted team |
+| ``random`` | uniform random actions |
+
+In a league world the learner plays one team (worlds alternate the side); only its
+agents' experiences train: :class:`LeaguePolicy` marks each agent ``(g, "learner")``
+and the trainer weights every loss term by that mask, so an opponent's experiences
+carry no gradient and no statistics. Each world draws its snapshot when an episode
+starts, so an episode is played against one opponent, whose result (win, draw, loss)
+updates the Elo ratings (:mod:`rlhc.evaluation.elo`) of the learner and that opponent.
+The pool, the ratings and the draws' generator are saved in checkpoints.
+
+The worlds' kinds are fixed for a run: ``round(share × worlds)`` of each kind (largest
+remainder), in the order self, snapshot, scripted, random.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import torch
+from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModuleBase
+
+from rlhc.evaluation.elo import INITIAL_RATING, K_FACTOR, elo_update, expected_score
+
+if TYPE_CHECKING:
+    from rlhc.evaluation.opponents import TeamPolicy
+
+KINDS = ("self", "snapshot", "scripted", "random")
+SAMPLING = ("uniform", "elo")
+#: Root keys the league policy writes at every step (stored by the collector).
+OPPONENT = "league_opponent"
+LEARNER_TEAM = "league_learner_team"
+#: Per-group key: whether the learning policy chose this agent's action.
+LEARNER = "learner"
+#: Opponent ids of the built-in teams (snapshots count up from 0; self-play is -1).
+SELF_ID, SCRIPTED_ID, RANDOM_ID = -1, -2, -3
+
+
+@dataclass
+class LeagueConfig:
+    """Who the learning team plays (the shares of the training worlds; beyond the paper).
+
+    Attributes:
+        self_play: share of worlds where both teams are the learning policy.
+        snapshot: share of worlds against frozen past learners.
+        scripted: share of worlds against the scripted team.
+        random: share of worlds against the random team.
+        pool_size: snapshots kept (the newest; the oldest is dropped).
+        snapshot_interval: updates between two snapshots (the first after this many).
+        sampling: ``uniform`` over the pool, or ``elo``: a snapshot with probability
+            proportional to its expected score against the learner (harder ones more).
+    """
+
+    self_play: float = 1.0
+    snapshot: float = 0.0
+    scripted: float = 0.0
+    random: float = 0.0
+    pool_size: int = 10
+    snapshot_interval: int = 10
+    sampling: str = "uniform"
+
+    @property
+    def shares(self) -> dict[str, float]:
+        return {
+            "self": self.self_play,
+            "snapshot": self.snapshot,
+            "scripted": self.scripted,
+            "random": self.random,
+        }
+
+    @property
+    def active(self) -> bool:
+        """Whether any world plays someone other than the learner itself."""
+        return self.self_play < 1.0
+
+
+def validate_league(cfg: LeagueConfig) -> list[str]:
+    """Problems with ``cfg``, each naming the key, the value and what is allowed."""
+    problems = []
+    names = {
+        "self": "self_play",
+        "snapshot": "snapshot",
+        "scripted": "scripted",
+        "random": "random",
+    }
+    for kind, share in cfg.shares.items():
+        if not (math.isfinite(share) and 0.0 <= share <= 1.0):
+            problems.append(f"league.{names[kind]}={share}; allowed: a share in [0, 1]")
+    total = sum(cfg.shares.values())
+    if not math.isclose(total, 1.0, abs_tol=1e-6):
+        problems.append(
+            f"league shares sum to {total:g} (self_play={cfg.self_play}, snapshot="
+            f"{cfg.snapshot}, scripted={cfg.scripted}, random={cfg.random}); allowed: a sum of 1"
+        )
+    if cfg.pool_size < 1:
+        problems.append(f"league.pool_size={cfg.pool_size}; allowed: an integer >= 1")
+    if cfg.snapshot_interval < 1:
+        problems.append(
+            f"league.snapshot_interval={cfg.snapshot_interval}; allowed: an integer >= 1"
+        )
+    if cfg.sampling not in SAMPLING:
+        problems.append(f"league.sampling={cfg.sampling!r}; allowed: {', '.join(SAMPLING)}")
+    return problems
+
+
+def allocate_worlds(shares: Mapping[str, float], num_worlds: int) -> np.ndarray:
+    """Each world's kind (an index into :data:`KINDS`), by largest remainder.
+
+    Examples:
+        >>> allocate_worlds({"self": 0.5, "snapshot": 0.25, "scripted": 0.25, "random": 0}, 8)
+        array([0, 0, 0, 0, 1, 1, 2, 2])
+    """
+    unknown = sorted(set(shares) - set(KINDS))
+    if unknown:
+        raise ValueError(f"unknown opponent kind(s) {unknown}; allowed: {', '.join(KINDS)}")
+    quotas = np.array([shares.get(kind, 0.0) * num_worlds for kind in KINDS])
+    counts = np.floor(quotas).astype(np.int64)
+    order = np.argsort(-(quotas - counts), kind="stable")
+    counts[order[: num_worlds - counts.sum()]] += 1
+    return np.repeat(np.arange(len(KINDS)), counts)
+
+
+@dataclass
+class Snapshot:
+    """A frozen past learner: its actors' weights and its Elo rating."""
+
+    id: int
+    actors: dict[str, dict[str, torch.Tensor]]
+    rating: float
+
+
+class League:
+    """The opponents of the learner in each world of one env, with their ratings.
+
+    Args:
+        cfg: the league settings (validated).
+        num_worlds: worlds of the training env.
+        seed: seed of the snapshot draws.
+    """
+
+    def __init__(self, cfg: LeagueConfig, num_worlds: int, seed: int) -> None:
+        self.cfg = cfg
+        self.kinds = allocate_worlds(cfg.shares, num_worlds)
+        is_league = self.kinds != KINDS.index("self")
+        # League worlds alternate the learner's side.
+        self.learner_team = np.where(is_league, np.cumsum(is_league) % 2, -1)
+        fixed = {KINDS.index("scripted"): SCRIPTED_ID, KINDS.index("random"): RANDOM_ID}
+        self.opponent = np.array([fixed.get(int(k), SELF_ID) for k in self.kinds])
+        self.rng = np.random.default_rng(seed)
+        self.pool: list[Snapshot] = []
+        self.next_id = 0
+        self.rating = INITIAL_RATING
+        self.built_in_ratings = {SCRIPTED_ID: INITIAL_RATING, RANDOM_ID: INITIAL_RATING}
+        self.results: list[tuple[int, float]] = []  # (opponent id, learner score) since last log
+
+    # --- the pool ----------------------------------------------------------------------
+    def add_snapshot(self, actors: Mapping[str, torch.nn.Module]) -> None:
+        """Freeze the learner's current actors into the pool (dropping the oldest).
+
+        A world whose snapshot leaves the pool draws another one at once.
+        """
+        weights = {g: copy.deepcopy(actor.state_dict()) for g, actor in actors.items()}
+        self.pool.append(Snapshot(self.next_id, weights, self.rating))
+        self.next_id += 1
+        del self.pool[: -self.cfg.pool_size]
+        kept = {s.id for s in self.pool}
+        orphaned = (self.opponent >= 0) & ~np.isin(self.opponent, list(kept))
+        self.draw(np.flatnonzero(orphaned))
+
+    def draw(self, worlds: np.ndarray) -> None:
+        """New snapshot opponents for the snapshot ``worlds`` whose episode starts.
+
+        Before the first snapshot exists those worlds play the learner itself.
+        """
+        if len(worlds) == 0:
+            return
+        if not self.pool:
+            self.opponent[worlds] = SELF_ID
+            return
+        if self.cfg.sampling == "elo":
+            weights = np.array([expected_score(s.rating, self.rating) for s in self.pool])
+            probabilities = weights / weights.sum()
+        else:
+            probabilities = np.full(len(self.pool), 1.0 / len(self.pool))
+        chosen = self.rng.choice(len(self.pool), size=len(worlds), p=probabilities)
+        self.opponent[worlds] = [self.pool[i].id for i in chosen]
+
+    def snapshot(self, snapshot_id: int) -> Snapshot:
+        return next(s for s in self.pool if s.id == snapshot_id)
+
+    # --- results and ratings -----------------------------------------------------------
+    def record(self, opponents: np.ndarray, scores: np.ndarray) -> None:
+        """Episode results against league opponents: ``scores`` 1 win, 0.5 draw, 0 loss."""
+        for opponent, score in zip(opponents.tolist(), scores.tolist(), strict=True):
+            if opponent == SELF_ID:
+                continue
+            if opponent in self.built_in_ratings:
+                self.rating, self.built_in_ratings[opponent] = elo_update(
+                    self.rating, self.built_in_ratings[opponent], score, K_FACTOR
+                )
+            else:
+                found = [s for s in self.pool if s.id == opponent]
+                if not found:  # dropped from the pool during the episode
+                    continue
+                self.rating, found[0].rating = elo_update(
+                    self.rating, found[0].rating, score, K_FACTOR
+                )
+            self.results.append((opponent, score))
+
+    def metrics(self) -> dict[str, float]:
+        """Ratings and the learner's mean score per opponent kind since the last call."""
+        out = {
+            "league/elo": self.rating,
+            "league/elo_scripted": self.built_in_ratings[SCRIPTED_ID],
+            "league/elo_random": self.built_in_ratings[RANDOM_ID],
+            "league/pool_size": float(len(self.pool)),
+        }
+        if self.pool:
+            out["league/elo_pool_mean"] = float(np.mean([s.rating for s in self.pool]))
+        names = {SCRIPTED_ID: "scripted", RANDOM_ID: "random"}
+        by_kind: dict[str, list[float]] = {}
+        for opponent, score in self.results:
+            by_kind.setdefault(names.get(opponent, "snapshot"), []).append(score)
+        for kind, scores in by_kind.items():
+            out[f"league/score_vs_{kind}"] = float(np.mean(scores))
+            out[f"league/episodes_vs_{kind}"] = float(len(scores))
+        self.results.clear()
+        return out
+
+    # --- checkpoints -------------------------------------------------------------------
+    def state_dict(self) -> dict[str, Any]:
+        return {
+            "pool": [(s.id, s.actors, s.rating) for s in self.pool],
+            "next_id": self.next_id,
+            "rating": self.rating,
+            "built_in_ratings": dict(self.built_in_ratings),
+            "opponent": self.opponent.copy(),
+            "rng": self.rng.bit_generator.state,
+        }
+
+    def load_state_dict(self, state: Mapping[str, Any]) -> None:
+        self.pool = [Snapshot(i, actors, rating) for i, actors, rating in state["pool"]]
+        self.next_id = int(state["next_id"])
+        self.rating = float(state["rating"])
+        self.built_in_ratings = {int(k): float(v) for k, v in state["built_in_ratings"].items()}
+        if len(state["opponent"]) == len(self.opponent):
+            self.opponent = np.asarray(state["opponent"]).copy()
+        self.rng.bit_generator.state = state["rng"]
+
+
+class LeaguePolicy(TensorDictModuleBase):
+    """The collection policy: the learner everywhere, opponents where the league says.
+
+    Runs the learner on every agent (actions and log-probabilities), then, in each
+    league world, overwrites the actions of the opponent team's agents with those of
+    the world's opponent, and writes ``(g, "learner")`` (``bool [N, n_g, 1]``: the
+    learner chose this action), :data:`OPPONENT` and :data:`LEARNER_TEAM` (``[N, 1]``).
+
+    Args:
+        learner: the learning policy (all groups), e.g. a ``TensorDictSequential``.
+        league: the league of this env.
+        env: the training env (a ``TransformedEnv`` over a
+            :class:`~rlhc.envs.torchrl_adapter.BatchedGameEnv`): the scripted team reads
+            its game; snapshots see the observations the learner sees.
+        make_actor: builds an empty actor of a group (to load snapshot weights into).
+    """
+
+    def __init__(
+        self,
+        learner: TensorDictModuleBase,
+        league: League,
+        env: Any,
+        make_actor: Any,
+    ) -> None:
+        # Imported here: the opponents' module reads checkpoints through the builders,
+        # which read this module's config schema.
+        from rlhc.evaluation.opponents import RandomPolicy, ScriptedPolicy
+
+        super().__init__()
+        self.learner = learner
+        self.league = league
+        self.base_env = env.base_env
+        self.groups = [spec.name for spec in self.base_env.game.groups]
+        self.in_keys = list(learner.in_keys) + [(g, "team") for g in self.groups] + ["step_count"]
+        self.out_keys = (
+            list(learner.out_keys) + [(g, LEARNER) for g in self.groups] + [OPPONENT, LEARNER_TEAM]
+        )
+        self.scripted: TeamPolicy = ScriptedPolicy(self.base_env)
+        self.random: TeamPolicy = RandomPolicy(self.base_env)
+        self.frozen = {g: make_actor(g).requires_grad_(False).eval() for g in self.groups}
+        self._loaded: dict[str, int] = {}
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        league = self.league
+        starting = tensordict["step_count"].view(-1).cpu().numpy() == 0
+        snapshot_kind = KINDS.index("snapshot")
+        league.draw(np.flatnonzero(starting & (league.kinds == snapshot_kind)))
+        tensordict = self.learner(tensordict)
+        n = len(league.opponent)
+        opponent = torch.as_tensor(league.opponent, dtype=torch.int64)
+        learner_team = torch.as_tensor(league.learner_team, dtype=torch.int64)
+        actions = self._opponent_actions(tensordict, opponent)
+        for group in self.groups:
+            team = tensordict[group, "team"]  # [N, n_g, 1]
+            # The learner chose the action unless an opponent plays this agent's team.
+            is_opponent = (opponent != SELF_ID).view(n, 1, 1) & (team != learner_team.view(n, 1, 1))
+            if group in actions:
+                action = tensordict[group, "action"]
+                mask = is_opponent.view(*is_opponent.shape[:2], *([1] * (action.dim() - 2)))
+                replaced = torch.where(mask, actions[group].to(action.dtype), action)
+                tensordict.set((group, "action"), replaced)
+            tensordict.set((group, LEARNER), ~is_opponent)
+        tensordict.set(OPPONENT, opponent.view(n, 1))
+        tensordict.set(LEARNER_TEAM, learner_team.view(n, 1))
+        return tensordict
+
+    def _opponent_actions(
+        self, tensordict: TensorDictBase, opponent: torch.Tensor
+    ) -> dict[str, torch.Tensor]:
+        """Actions of every agent under each opponent present, merged per world."""
+        present = sorted(set(opponent.tolist()) - {SELF_ID})
+        if not present:
+            return {}
+        merged = {g: tensordict[g, "action"].clone() for g in self.groups}
+        with torch.no_grad():
+            for opponent_id in present:
+                if opponent_id == SCRIPTED_ID:
+                    actions = self.scripted(self._raw(tensordict))
+                elif opponent_id == RANDOM_ID:
+                    actions = self.random(tensordict)
+                else:
+                    actions = self._snapshot_actions(tensordict, opponent_id)
+                worlds = opponent == opponent_id
+                for group, action in actions.items():
+                    merged[group][worlds] = action[worlds].to(merged[group].dtype)
+        return merged
+
+    def _raw(self, tensordict: TensorDictBase) -> TensorDictBase:
+        """The game's current, unnormalised observations (what the scripted team reads)."""
+        raw = tensordict.empty()
+        for group, observed in self.base_env.game.observe().items():
+            raw.set((group, "observation"), torch.from_numpy(observed.observation))
+        return raw
+
+    def _snapshot_actions(
+        self, tensordict: TensorDictBase, snapshot_id: int
+    ) -> dict[str, torch.Tensor]:
+        snapshot = self.league.snapshot(snapshot_id)
+        out = {}
+        for group, actor in self.frozen.items():
+            if self._loaded.get(group) != snapshot_id:
+                actor.load_state_dict(snapshot.actors[group])
+                self._loaded[group] = snapshot_id
+            inputs = tensordict.select(*actor.in_keys).clone(recurse=False)
+            out[group] = actor(inputs)[group, "action"]
+        return out
