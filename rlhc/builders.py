@@ -19,6 +19,7 @@ from rlhc.envs.tennis.rules import FAULT_PENALTIES
 from rlhc.league import validate_league
 from rlhc.modules import NetworkConfig, make_actor, make_manager_critic, make_worker_critic
 from rlhc.objectives import FUSIONS, HierarchicalPPOLoss, make_ppo_loss
+from rlhc.shaping import PotentialShaping, game_potential
 
 EPISODE_REWARD = "episode_reward"
 MODEL_KINDS = ("mlp", "lstm")
@@ -74,6 +75,7 @@ def validate(cfg: TrainConfig) -> None:
         "algo.critic_coef": (cfg.algo.critic_coef, 0.0, math.inf, False),
         "algo.max_grad_norm": (cfg.algo.max_grad_norm, 0.0, math.inf, False),
         "model.initial_action_scale": (cfg.model.initial_action_scale, 0.0, math.inf, False),
+        "shaping.scale": (cfg.shaping.scale, 0.0, math.inf, True),
     }
     for name, (number, low, high, closed) in numbers.items():
         above = number >= low if closed else number > low
@@ -82,6 +84,11 @@ def validate(cfg: TrainConfig) -> None:
             raise ConfigError(
                 f"{name}={number}; allowed: a finite number in {bracket}{low}, {high})"
             )
+    if cfg.shaping.scale > 0 and cfg.env.name != "soccer":
+        raise ConfigError(
+            f"shaping.scale={cfg.shaping.scale} on env={cfg.env.name!r}; allowed: 0, or "
+            "shaping on soccer (the only game with a potential)"
+        )
     problems = validate_league(cfg.league)
     if problems:
         raise ConfigError("; ".join(problems))
@@ -217,6 +224,12 @@ def with_training_transforms(cfg: TrainConfig, base: EnvBase) -> TransformedEnv:
             out_keys=[(g, EPISODE_REWARD) for g in groups],
         )
     ]
+    if cfg.shaping.scale > 0:
+        # After RewardSum: the logged returns stay the game's own rewards.
+        game = getattr(base, "game", None)
+        transforms.append(
+            PotentialShaping(game_potential(game), groups, cfg.algo.gamma, cfg.shaping.scale)
+        )
     if cfg.algo.normalize_observations:
         keys = [(g, key) for g in groups for key in ("observation", "manager_observation")]
         # Statistics are shared by the worlds (reduce_batch_dims) and kept per agent slot;

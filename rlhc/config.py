@@ -16,6 +16,7 @@ from omegaconf import MISSING
 
 from rlhc.envs.config import SoccerEnvConfig, TennisEnvConfig
 from rlhc.league import LeagueConfig
+from rlhc.shaping import ShapingConfig
 
 
 @dataclass
@@ -149,6 +150,7 @@ class TrainConfig:
         algo: PPO hyperparameters (Table 3 per env, group ``table3`` chooses them).
         model: the networks (group ``model``).
         logger: metrics backends (group ``logger``).
+        shaping: potential-based reward shaping (beyond the paper; off at scale 0).
         league: who the learning team plays in each world (group ``league``; beyond the
             paper: ``league=self_play``, pure self-play, is the paper's).
         seed: seeds torch, numpy and the game.
@@ -168,6 +170,7 @@ class TrainConfig:
     model: ModelConfig = field(default_factory=ModelConfig)
     logger: LoggerConfig = field(default_factory=LoggerConfig)
     league: LeagueConfig = field(default_factory=LeagueConfig)
+    shaping: ShapingConfig = field(default_factory=ShapingConfig)
     seed: int = 0
     checkpoint_freq: int = 500_000
     resume: str | None = None
