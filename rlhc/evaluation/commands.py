@@ -64,6 +64,14 @@ def format_summary(summary: dict[str, Any]) -> str:
         f"  points {summary['home_points_mean']:.2f} : {summary['away_points_mean']:.2f}"
         f"   mean length {summary['length_mean']:.1f} steps"
     )
+    if "points_won_rate" in summary:
+        low, high = summary["points_won_rate_ci"]
+        lines.append(
+            f"  points won by home {summary['points_won_rate']:.1%} [{low:.1%}, {high:.1%}]"
+        )
+    for key, sides in summary.items():
+        if key.endswith("_per_point") and isinstance(sides, dict):
+            lines.append(f"  {key}: home {sides['home']:.2f}, away {sides['away']:.2f}")
     return "\n".join(lines)
 
 

@@ -168,3 +168,19 @@ def test_restored_policy_sees_what_the_trained_actor_saw(checkpoints: dict[str, 
     with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad():
         trained = policy.actors["racket"](normalised.clone())["racket", "action"]
         torch.testing.assert_close(policy(raw_td)["racket"], trained)
+
+
+def test_tennis_summaries_count_hits_over_the_net_per_point_by_side() -> None:
+    from rlhc.evaluation.matches import evaluate_against
+    from rlhc.evaluation.opponents import make_team_policy
+
+    env = make_env("tennis", num_envs=4, seed=0)
+    rally = evaluate_against(make_team_policy("scripted", env), "scripted", env, 4)
+    hits = rally["hits_over_net_by_team_per_point"]
+    # Two scripted teams keep the ball going: several shots each per point.
+    assert hits["home"] >= 3.0 and hits["away"] >= 3.0
+    one_sided = evaluate_against(make_team_policy("scripted", env), "random", env, 4)
+    assert one_sided["hits_over_net_by_team_per_point"]["away"] < 0.2
+    low, high = one_sided["points_won_rate_ci"]
+    assert one_sided["points_won_rate"] > 0.8
+    assert low <= one_sided["points_won_rate"] <= high and low < 1.0
