@@ -154,11 +154,12 @@ def test_partial_reset_touches_only_the_masked_pitches() -> None:
     np.testing.assert_array_equal(state_after[[1, 3]], state_before[[1, 3]])
     np.testing.assert_array_equal(game.step_count, [0, 20, 0, 20])
     jitter = game.options.kickoff_jitter
+    spot = -game.geometry.half_length / 2  # striker_0 kicks off halfway to its goal line
     for world in (0, 2):
         ball = state_after[world, 0:2]
         assert np.all(np.abs(ball) <= jitter / 2) and np.all(state_after[world, 2:4] == 0)
         striker_0 = state_after[world, 4:6]
-        assert abs(striker_0[0] + 4.0) <= jitter and abs(striker_0[1]) <= jitter
+        assert abs(striker_0[0] - spot) <= jitter and abs(striker_0[1]) <= jitter
     with pytest.raises(ValueError, match="mask"):
         game.reset(np.array([True, False]))
 

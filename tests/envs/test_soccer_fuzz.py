@@ -9,6 +9,8 @@ from rlhc.envs.soccer import SoccerGame
 from rlhc.envs.soccer.physics import BALL
 from rlhc.envs.soccer.scripted import goalie_actions, striker_actions
 
+#: body order of a scene turned by 180° with the teams swapped.
+HALF_TURN = [1, 0, 3, 2, BALL]
 STRIKER_REWARDS = np.float32([0.0, 1.0, -0.1]) + np.float32(-0.001)
 GOALIE_REWARDS = np.float32([0.0, 0.1, -1.0]) + np.float32(0.001)
 
@@ -26,11 +28,29 @@ def fuzz_actions(rng: np.random.Generator, block: int, num_worlds: int) -> dict[
     }
 
 
+def overlap(centres: np.ndarray, boxes: np.ndarray, radius: float) -> np.ndarray:
+    """How deep each circle ``[..., 2]`` of ``radius`` reaches into the nearest box ``[B, 4]``.
+
+    Exact for axis-aligned boxes ``(x_min, y_min, x_max, y_max)``: the radius minus the
+    signed distance from the centre to the box (negative inside it).
+    """
+    low, high = boxes[:, :2], boxes[:, 2:]
+    point = centres[..., None, :]
+    outside = np.linalg.norm(np.maximum(np.maximum(low - point, point - high), 0.0), axis=-1)
+    inside = np.min(np.minimum(point - low, high - point), axis=-1)
+    return radius - np.where(outside > 0, outside, -inside).min(axis=-1)
+
+
 def run_fuzz(num_worlds: int, steps: int, seed: int) -> dict[str, float]:
     """Step with resets; assert the invariants at every step; return what was seen."""
     game = SoccerGame(num_worlds=num_worlds, seed=seed, max_cycles=300)
     geometry = game.geometry
     player_radius, ball_radius = game.options.player_radius, game.options.ball_radius
+    # Players meet the walls and the goal-mouth barriers; the ball only the walls (a ball
+    # crossing a goal line in the mouth is going into the net, not into a wall).
+    walls = np.array(geometry.wall_boxes())
+    a, g, d = geometry.half_length, geometry.goal_half_width, geometry.goal_depth
+    barriers = np.concatenate([walls, [(a, -g, a + d, g), (-a - d, -g, -a, g)]])
     rng = np.random.default_rng(seed)
     goals = 0
     deepest = 0.0  # how far a body's edge ever went into a wall
@@ -59,14 +79,10 @@ def run_fuzz(num_worlds: int, steps: int, seed: int) -> dict[str, float]:
         assert np.all(np.abs(positions[:, :4, 0]) < geometry.half_length)
         assert np.all(np.abs(positions[:, :4, 1]) < geometry.half_width)
         assert np.all(geometry.contains(positions[:, BALL]))
-        x, y = np.abs(positions[..., 0]), np.abs(positions[..., 1])
-        radius = np.array([player_radius] * 4 + [ball_radius])
-        in_net = (x > geometry.half_length) & (y < geometry.goal_half_width)
-        edge_x = np.where(
-            in_net, x - geometry.half_length - geometry.goal_depth, x - geometry.half_length
-        )
         deepest = max(
-            deepest, float(np.max(edge_x + radius)), float(np.max(y - geometry.half_width + radius))
+            deepest,
+            float(overlap(positions[:, :4], barriers, player_radius).max()),
+            float(overlap(positions[:, BALL], walls, ball_radius).max()),
         )
         goals += int(outcome.terminated.sum())
         done = outcome.terminated | outcome.truncated
@@ -138,3 +154,42 @@ def test_scripted_goalie_guards_its_goal_line(team: int) -> None:
     actions = goalie_actions(game.state(), team, game.options)
     # side left (towards +y), side right, back to its line, step out to clear the ball
     np.testing.assert_array_equal(actions, [2, 3, 1, 0])
+
+
+@pytest.mark.parametrize("team", [0, 1])
+def test_scripted_striker_never_kicks_towards_its_own_goal(team: int) -> None:
+    """Facing its own half with the ball just ahead, it side-steps away from the ball."""
+    game = SoccerGame(num_worlds=2, seed=0)
+    a = game.geometry.half_length
+    touching = game.options.player_radius + game.options.ball_radius
+    # Team 0's frame: striker_0 at the centre spot facing its own goal, the ball just
+    # ahead and off-centre (to its right in world 0, to its left in world 1).
+    positions = np.zeros((2, 5, 2))
+    positions[:, :4] = [[0.0, 0.0], [4.0, 4.0], [-a + 1.0, 0.0], [a - 1.0, 0.0]]
+    positions[:, BALL] = [[-touching - 0.1, 0.2], [-touching - 0.1, -0.2]]
+    angles = np.tile([np.pi, np.pi, 0.0, np.pi, 0.0], (2, 1))
+    if team == 1:  # the same scene turned by 180°, teams swapped
+        positions, angles = -positions[:, HALF_TURN], angles[:, HALF_TURN] + np.pi
+    game.place(positions, angles)
+    np.testing.assert_array_equal(striker_actions(game.state(), team, game.options), [4, 5])
+
+
+@pytest.mark.parametrize("team", [0, 1])
+def test_scripted_goalie_meets_a_rolling_ball_on_its_path(team: int) -> None:
+    """A ball rolling at the goal is met where its path crosses the goalie's line."""
+    game = SoccerGame(num_worlds=2, seed=0)
+    a = game.geometry.half_length
+    positions = np.zeros((2, 5, 2))
+    positions[:, :4] = [[-2.0, 4.0], [4.0, 4.0], [-a + 1.0, 0.0], [a - 1.0, 0.0]]
+    positions[:, BALL] = [-a + 5.0, 2.0]
+    angles = np.tile([0.0, np.pi, 0.0, np.pi, 0.0], (2, 1))
+    sign = 1.0 if team == 0 else -1.0
+    if team == 1:  # the same scene turned by 180°, teams swapped
+        positions = -positions[:, HALF_TURN]
+    game.place(positions, angles)
+    # World 0: the ball rolls at the goal's centre line and below it (crossing y = -2);
+    # world 1 lies still: the goalie narrows the angle (towards +y).
+    for world, velocity in ((0, (-8.0, -8.0)), (1, (0.0, 0.0))):
+        game.physics.bodies[world][BALL].velocity = tuple(sign * np.array(velocity))
+    game.physics.read()
+    np.testing.assert_array_equal(goalie_actions(game.state(), team, game.options), [3, 2])

@@ -135,7 +135,7 @@ def test_observation_layout_and_sizes() -> None:
         manager_hit = manager[..., NUM_TYPES + 1]
         np.testing.assert_array_equal(manager[..., :NUM_TYPES].sum(-1), manager_hit)
         assert np.all(manager[..., NUM_TYPES] <= manager_hit)  # own half only when hit
-        # With a 24 m range on a 16 x 10 pitch every manager ray hits something.
+        # With a 30 m range on a 20 x 10 pitch every manager ray hits something.
         assert np.all(manager_hit == 1)
 
 
@@ -150,12 +150,17 @@ def test_rays_see_what_the_geometry_says() -> None:
     )
     worker = game.observe()["striker"].observation[0, 0].reshape(WORKER_RAYS, WORKER_FEATURES)
     assert worker[6, OBJECT_TYPES.index("ball")] == 1.0
-    np.testing.assert_allclose(worker[6, -1] * game.options.worker_ray_length, 1.75, atol=0.05)
+    # Through the centre (2.0147 m away), so the ball's surface is one radius nearer.
+    np.testing.assert_allclose(
+        worker[6, -1] * game.options.worker_ray_length,
+        np.hypot(2.0, 0.2427) - game.options.ball_radius,
+        atol=0.01,
+    )
     goalie_view = game.observe()["goalie"].observation[0, 0].reshape(WORKER_RAYS, WORKER_FEATURES)
     assert goalie_view[0, OBJECT_TYPES.index("wall")] == 1.0  # its right: a touch line 5 m away
     np.testing.assert_allclose(goalie_view[0, -1] * game.options.worker_ray_length, 5.0, atol=1e-4)
     # goalie_0's manager: its rearmost rays (±135°) end in its own half, its forward rays
-    # (±7°, 14.8 m, a clear path) on the far wall, in the other half.
+    # (±7°, a clear path) in the mouth of the opponent goal, 6.8 m past the centre spot.
     game.place(
         np.array([[[-4.0, 3.0], [4.0, 3.0], [-6.8, 0.0], [6.8, 4.0], [0.0, -3.0]]]),
         np.array([[0.0, np.pi, 0.0, np.pi, 0.0]]),
@@ -163,10 +168,12 @@ def test_rays_see_what_the_geometry_says() -> None:
     manager = game.observe()["goalie"].manager_observation[0, 0].reshape(-1, MANAGER_FEATURES)
     own_half, hit = manager[:, NUM_TYPES], manager[:, NUM_TYPES + 1]
     assert hit.all() and own_half[0] == own_half[-1] == 1.0 and own_half[9] == own_half[10] == 0.0
-    assert manager[9, OBJECT_TYPES.index("wall")] == 1.0
+    reach = game.geometry.half_length + 6.8
+    assert (reach * np.tan(np.deg2rad(135 / 19))) < game.geometry.goal_half_width
+    assert manager[9, OBJECT_TYPES.index("opponent_goal")] == 1.0
     np.testing.assert_allclose(
         manager[9, -1] * game.options.manager_ray_length,
-        14.8 / np.cos(np.deg2rad(135 / 19)),
+        reach / np.cos(np.deg2rad(135 / 19)),
         atol=1e-3,
     )
 

@@ -1,8 +1,9 @@
 """2 vs 2 soccer: a striker and a goalie per team, ray perception, N pitches batched.
 
-A top-down pitch (16 m × 10 m by default) closed by walls, a 3 m goal in each end with a
-1 m deep net, a ball and four round players with a facing direction, simulated by
-pymunk. Team 0 defends the goal at ``-x``, team 1 the goal at ``+x``.
+A top-down pitch (20 m × 10 m by default) closed by walls, a 6 m goal in each end with a
+2 m deep net, a ball and four round players with a facing direction, simulated by
+pymunk. Team 0 defends the goal at ``-x``, team 1 the goal at ``+x``. The proportions are
+those of ML-Agents' SoccerTwos (sources in :mod:`rlhc.envs.soccer.config`).
 
 =================== ========================================================================
 agents              ``striker_0``, ``striker_1``, ``goalie_0``, ``goalie_1`` (index = team)
@@ -10,9 +11,9 @@ groups              ``striker`` (2), ``goalie`` (2); ``teams = (0, 1)``
 striker action      ``Discrete(6)``: forward, backward, rotate left, rotate right, side left,
                     side right (paper Table 2; no no-op, as in the paper)
 goalie action       ``Discrete(4)``: forward, backward, side left, side right (facing fixed)
-worker observation  ``float32 [112]``: 14 rays over 180° ahead, range 10 m ×
+worker observation  ``float32 [112]``: 14 rays over 180° ahead, range 13.4 m ×
                     (7 types one-hot + normalised distance)
-manager observation ``float32 [200]``: 20 rays over 270°, range 24 m ×
+manager observation ``float32 [200]``: 20 rays over 270°, range 30 m ×
                     (7 types one-hot + own half + hit flag + normalised distance)
 ray types           ball, own goal, opponent goal, wall, teammate, opponent striker,
                     opponent goalie
@@ -21,7 +22,7 @@ goalie reward       +0.1 its team scores, -1 its team concedes, +0.001 every ste
 reward parts        ``StepOutcome.info``: ``striker_sparse_reward``, ``striker_time_reward``,
                     ``goalie_sparse_reward``, ``goalie_time_reward`` (``[N, 2]`` each)
 termination         a goal (``StepOutcome.scoring_team`` says whose)
-truncation          ``max_cycles`` decisions (default 500)
+truncation          ``max_cycles`` decisions (default 600: SoccerTwos' 3,000 frames / 5)
 decision            the action held for ``decision_interval`` frames of 0.1 s (default 1)
 state               ``float32 [28]``: ball (x, y, vx, vy), then per player in agent order
                     (x, y, vx, vy, cos θ, sin θ); absolute pitch frame

@@ -7,8 +7,8 @@ out as the paper's vectors:
 ============ ====== ========= ====== =========================================================
 observation  rays   fan       range  per ray
 ============ ====== ========= ====== =========================================================
-worker       14     180°      10 m   7 types one-hot, normalised distance (8) → 112
-manager      20     270°      24 m   7 types one-hot, own half, hit flag, distance (10) → 200
+worker       14     180°      13.4 m 7 types one-hot, normalised distance (8) → 112
+manager      20     270°      30 m   7 types one-hot, own half, hit flag, distance (10) → 200
 ============ ====== ========= ====== =========================================================
 
 The 7 types: ball, own goal, opponent goal, wall, teammate, opponent striker,

@@ -5,10 +5,13 @@ team's frame (team 1 rotates the pitch by 180°), so one rule serves both sides:
 
 * the striker walks to a point behind the ball on the line from the ball to the
   opponent goal (aiming at the half of the mouth away from the opponent goalie), turns
-  towards it, and runs through the ball (a forward contact kicks);
+  towards it, and runs through the ball (a forward contact kicks); facing its own half
+  with the ball just ahead, it side-steps instead, so as never to kick towards its own
+  goal;
 * the goalie stays one metre in front of its goal line, where the line from the goal's
-  centre to the ball crosses it (narrowing the angle), and steps out to clear a ball
-  that comes close in front of it.
+  centre to the ball crosses it (narrowing the angle) or, when the ball rolls towards
+  the goal, where the ball's path crosses it; it steps out to clear a ball that comes
+  close in front of it.
 """
 
 from __future__ import annotations
@@ -22,6 +25,8 @@ _STRIKER = {name: index for index, name in enumerate(STRIKER_ACTIONS)}
 _GOALIE = {name: index for index, name in enumerate(GOALIE_ACTIONS)}
 _TURN_TOLERANCE = 0.35  # radians: beyond this heading error the striker turns first
 _GOALIE_LINE_GAP = 1.0  # metres between the goalie's line and its goal line
+_SIDESTEP_MARGIN = 0.3  # metres beyond touching within which the striker avoids the ball
+_INCOMING_SPEED = 0.5  # m/s towards the goal from which the goalie intercepts the ball
 
 
 def _player(state: np.ndarray, body: int, team: int) -> tuple[np.ndarray, np.ndarray]:
@@ -75,10 +80,24 @@ def striker_actions(
     to_target = target - position
     heading = np.arctan2(to_target[:, 1], to_target[:, 0])
     error = np.angle(np.exp(1j * (heading - np.arctan2(facing[:, 1], facing[:, 0]))))
+    # Facing its own half with the ball just ahead (in the kicking arc), a forward step
+    # would kick the ball towards its own goal: side-step away from the ball instead.
+    to_ball = ball - position
+    distance = np.linalg.norm(to_ball, axis=-1)
+    in_the_way = (
+        (np.sum(facing * shot, -1) < 0.0)
+        & (distance < reach + _SIDESTEP_MARGIN)
+        & (np.sum(to_ball * facing, -1) > 0.5 * distance)
+    )
+    ball_on_left = facing[:, 0] * to_ball[:, 1] - facing[:, 1] * to_ball[:, 0] > 0
     return np.where(
-        np.abs(error) <= _TURN_TOLERANCE,
-        _STRIKER["forward"],
-        np.where(error > 0, _STRIKER["rotate_left"], _STRIKER["rotate_right"]),
+        in_the_way,
+        np.where(ball_on_left, _STRIKER["side_right"], _STRIKER["side_left"]),
+        np.where(
+            np.abs(error) <= _TURN_TOLERANCE,
+            _STRIKER["forward"],
+            np.where(error > 0, _STRIKER["rotate_left"], _STRIKER["rotate_right"]),
+        ),
     ).astype(np.int64)
 
 
@@ -98,10 +117,16 @@ def goalie_actions(
     goal_line = -options.pitch_length / 2
     line = goal_line + _GOALIE_LINE_GAP
     # Narrow the angle: stand where the line from the goal's centre to the ball crosses
-    # the goalie's line, within the mouth.
+    # the goalie's line, within the mouth; a ball rolling towards the goal is met where
+    # its path crosses that line instead.
     reach = np.maximum(ball[:, 0] - goal_line, _GOALIE_LINE_GAP)
     cover = options.goal_width / 2 - options.player_radius / 2
-    target_y = np.clip(ball[:, 1] * _GOALIE_LINE_GAP / reach, -cover, cover)
+    narrow = ball[:, 1] * _GOALIE_LINE_GAP / reach
+    velocity = (1.0 if team == 0 else -1.0) * state[:, 2:4]
+    incoming = (velocity[:, 0] < -_INCOMING_SPEED) & (ball[:, 0] > line)
+    time_to_line = (line - ball[:, 0]) / np.where(incoming, velocity[:, 0], -1.0)
+    crossing = ball[:, 1] + velocity[:, 1] * time_to_line
+    target_y = np.clip(np.where(incoming, crossing, narrow), -cover, cover)
     target = np.stack([np.full(len(state), line), target_y], axis=-1)
     to_ball = ball - position
     clear = (to_ball[:, 0] > 0) & (np.linalg.norm(to_ball, axis=-1) < 1.5)
