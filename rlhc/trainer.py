@@ -365,6 +365,9 @@ class Trainer:
         if not done.any():
             return
         episodes["episode_length"].append(batch["next", "step_count"][done].float().flatten())
+        # The share of episodes the game ended (a point, a goal) before the time cap.
+        terminated = batch["next", "terminated"].squeeze(-1)[done]
+        episodes["episode_terminated"].append(terminated.float().flatten())
         for group in self.groups:
             # [episodes, n_g, 1] → one number per episode: the group's mean return.
             returns = batch["next", group, EPISODE_REWARD][done].float()
