@@ -65,8 +65,16 @@ LOGGING = ("logger.backends=[csv]", "logger.progress=false")
 
 #: env -> preset name -> overrides of the training config (after ``env=`` and ``critic=``).
 PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
-    "tennis": {"paper": ()},  # Table 3 as composed by conf/table3/tennis.yaml
-    "soccer": {"paper": ()},  # Table 3 as composed by conf/table3/soccer.yaml
+    "tennis": {
+        "paper": (),  # Table 3 as composed by conf/table3/tennis.yaml
+        # Beyond the paper: a league of opponents, at the paper's budget.
+        "league": ("league=mixed",),
+    },
+    "soccer": {
+        "paper": (),  # Table 3 as composed by conf/table3/soccer.yaml
+        # Beyond the paper: a league, ball-progress shaping and four times the budget.
+        "best": ("league=mixed", "shaping.scale=0.1", "algo.max_steps=2000000"),
+    },
 }
 
 
