@@ -15,6 +15,36 @@ symlink to the newest. Both survive a kill at any instant:
 
 Temporary files left behind by a kill (``.step_<frames>.pt.<pid>.<hex>.tmp``) are never
 read.
+
+**What a resume restores, and what it does not.** A checkpoint holds every group's
+actor and both critics, Adam's state, the observation normaliser's running statistics,
+the counters (frames, updates, wall time), the game's random generator and the global
+random states of python, numpy and torch; the learning-rate, entropy and clip schedules
+are functions of the frame count, so they continue unchanged. It does not hold the
+state of the worlds: positions, velocities, the decisions of the episodes in progress
+and the returns being summed for them. So, compared with a run that was never stopped:
+
+- every world restarts from a reset. The episodes in progress at the save are cut
+  short: what they collected before the save was trained on, but they are never
+  finished nor counted in ``metrics.csv``;
+- from the first update after the resume on, the collected experience (and so the
+  weights and every metric) differs from the uninterrupted run's: the same
+  distribution, not the same numbers. Resuming the same checkpoint twice does give the
+  same run (a test pins it);
+- a summary window still open at the save (a stop between two summaries) is lost: the
+  next row of ``metrics.csv`` covers only the updates after the resume. Rows past the
+  checkpoint's frame count are dropped and TensorBoard hides its points past it, so the
+  curve has neither duplicates nor points of the abandoned branch;
+- ``wall_time`` continues from the saved value (the pause is not counted); the periodic
+  evaluation rebuilds its worlds from their seed.
+
+Saving the worlds would need the game's physics state, the collector's carried
+observations and the transforms' counters; it is not done.
+
+A resume must keep what the saved weights belong to: :func:`config_differences` names
+the settings that differ (the game, the critics, the networks); the budget, logging,
+evaluation and checkpoint periods, ``env.num_envs`` and PPO's other hyperparameters may
+change.
 """
 
 from __future__ import annotations
@@ -24,6 +54,7 @@ import random
 import re
 import secrets
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +66,20 @@ LATEST = "latest.pt"
 STEP_GLOB = "step_*.pt"
 FORMAT_VERSION = 1
 _STEP_NAME = re.compile(r"step_(\d+)\.pt")
+
+#: Config sections a resume may not change: the game, the value fusion and the
+#: networks are what the saved weights belong to.
+FIXED_SECTIONS = ("env", "critic", "model")
+#: Keys outside those sections that a resume may not change either: the normaliser's
+#: statistics are part of the policy's input.
+FIXED_KEYS = ("algo.normalize_observations",)
+#: Keys inside them that may change: how many worlds are simulated at once changes
+#: neither an update nor the budget.
+FREE_KEYS = ("env.num_envs",)
+
+
+class ResumeError(ValueError):
+    """A run cannot continue from a checkpoint (names the checkpoint and the reason)."""
 
 
 def save_checkpoint(path: Path, state: dict[str, Any]) -> None:
@@ -243,6 +288,70 @@ def _fsync_directory(directory: Path) -> None:
         pass
     finally:
         os.close(fd)
+
+
+def run_dir_of(resume: str | os.PathLike[str]) -> Path | None:
+    """The run directory a ``resume`` path belongs to, ``None`` if it names none.
+
+    A resumed run writes into the run it continues (one ``metrics.csv``, one TensorBoard
+    run): ``rlhc.run`` sets ``hydra.run.dir`` from this unless given explicitly.
+
+    Args:
+        resume: a run directory, its ``checkpoints`` directory, or a file in it.
+
+    Returns:
+        The run directory, as given (relative stays relative); ``None`` for a path that
+        does not exist or is not inside a run (e.g. a ``.pt`` file copied elsewhere).
+
+    Examples:
+        >>> run_dir_of("outputs/tennis/hierarchical/2025-01-01_00-00-00/checkpoints/latest.pt")  # doctest: +SKIP
+        PosixPath('outputs/tennis/hierarchical/2025-01-01_00-00-00')
+    """
+    path = Path(resume).expanduser()
+    if path.is_dir():
+        if (path / CHECKPOINT_DIR).is_dir():
+            return path
+        return path.parent if path.name == CHECKPOINT_DIR else None
+    if path.is_file() and path.parent.name == CHECKPOINT_DIR:
+        return path.parent.parent
+    return None
+
+
+def config_differences(stored: Mapping[str, Any], current: Mapping[str, Any]) -> list[str]:
+    """The settings a resume may not change that differ, as ``key: stored -> current``.
+
+    Compares :data:`FIXED_SECTIONS` (but :data:`FREE_KEYS`) and :data:`FIXED_KEYS`.
+    A key that only one side has (a setting added or removed by a code change) is not
+    compared: the weights' shapes are checked when they are loaded.
+
+    Args:
+        stored: the checkpoint's ``config`` (a plain nested dict).
+        current: the config of the run that would continue it, alike.
+
+    Examples:
+        >>> config_differences({"model": {"hidden_size": 32}, "env": {"num_envs": 4}},
+        ...                    {"model": {"hidden_size": 64}, "env": {"num_envs": 8}})
+        ['model.hidden_size: 32 -> 64']
+    """
+    old, new = _flatten(stored), _flatten(current)
+    differing = []
+    for key in sorted(old.keys() & new.keys()):
+        fixed = key.split(".", 1)[0] in FIXED_SECTIONS or key in FIXED_KEYS
+        if fixed and key not in FREE_KEYS and old[key] != new[key]:
+            differing.append(f"{key}: {old[key]!r} -> {new[key]!r}")
+    return differing
+
+
+def _flatten(config: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{"a": {"b": 1}} -> {"a.b": 1}``."""
+    flat: dict[str, Any] = {}
+    for key, value in config.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, Mapping):
+            flat.update(_flatten(value, f"{name}."))
+        else:
+            flat[name] = value
+    return flat
 
 
 def rng_states() -> dict[str, Any]:

@@ -1,31 +1,53 @@
-"""Metric logging: a tidy ``metrics.csv`` plus TorchRL's TensorBoard and wandb loggers.
+"""Metric logging: a tidy ``metrics.csv``, TensorBoard, TorchRL's wandb logger; progress lines.
 
 ``metrics.csv`` has one row per summary and one column per metric (plus ``step``, the
 frame count). It is what ``rlhc.plot`` reads and what survives a resume: on resume,
 rows past the checkpoint's step are dropped, so the curve continues without a gap or
-a duplicate.
+a duplicate. TensorBoard gets the same treatment: a resumed run appends to the run's
+own ``tb/<name>/`` and hides the points past the checkpoint's step (the event files'
+``purge_step``, which torch's ``SummaryWriter`` takes and TorchRL's
+``TensorboardLogger`` does not pass on).
+
+:class:`ProgressLines` writes a line to the ``logging`` module every tenth of the
+budget; ``rlhc.run``'s Hydra logging sends it to stdout and the run's ``run.log``.
 """
 
 from __future__ import annotations
 
 import csv
+import datetime
 import math
 import os
+import re
+import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from rlhc.builders import ConfigError
 from rlhc.config import LoggerConfig
 
 METRICS_FILE = "metrics.csv"
+TENSORBOARD_DIR = "tb"
 BACKENDS = ("csv", "tensorboard", "wandb")
 WANDB_MODES = ("auto", "online", "offline", "disabled")
+
+
+def validate_logger(cfg: LoggerConfig) -> None:
+    """Raise :class:`~rlhc.builders.ConfigError` naming an unknown backend or wandb mode."""
+    unknown = [b for b in cfg.backends if b not in BACKENDS]
+    if unknown:
+        raise ConfigError(f"logger.backends has {unknown}; allowed: {', '.join(BACKENDS)}")
+    if cfg.wandb_mode not in WANDB_MODES:
+        raise ConfigError(
+            f"logger.wandb_mode={cfg.wandb_mode!r}; allowed: {', '.join(WANDB_MODES)}"
+        )
 
 
 def wandb_mode(requested: str) -> str:
     """Resolve ``auto``: online only when an API key is configured (env var or netrc)."""
     if requested not in WANDB_MODES:
-        raise ValueError(f"logger.wandb_mode={requested!r}; allowed: {', '.join(WANDB_MODES)}")
+        raise ConfigError(f"logger.wandb_mode={requested!r}; allowed: {', '.join(WANDB_MODES)}")
     if requested != "auto":
         return requested
     if os.environ.get("WANDB_MODE"):
@@ -75,6 +97,33 @@ class CSVMetrics:
         os.replace(tmp, self.path)
 
 
+class TensorBoardMetrics:
+    """Scalars to ``<log_dir>/<run_name>/``, the event file opened at the first point.
+
+    Args:
+        log_dir: the run's ``tb`` directory.
+        run_name: the TensorBoard run (one per run directory, kept across resumes).
+        resume_step: when resuming, the checkpoint's frame count: points logged past it
+            by the earlier process are hidden (``purge_step``), as the CSV drops them.
+    """
+
+    def __init__(self, log_dir: Path, run_name: str, resume_step: int | None = None) -> None:
+        self.directory = log_dir / run_name
+        self.purge_step = None if resume_step is None else resume_step + 1
+        self.writer: Any = None
+
+    def log_scalar(self, name: str, value: float, step: int) -> None:
+        if self.writer is None:
+            from torch.utils.tensorboard import SummaryWriter
+
+            self.writer = SummaryWriter(str(self.directory), purge_step=self.purge_step)
+        self.writer.add_scalar(name, value, global_step=step)
+
+    def close(self) -> None:
+        if self.writer is not None:
+            self.writer.close()
+
+
 class MetricLogger:
     """Fans scalar metrics out to the configured backends.
 
@@ -94,42 +143,109 @@ class MetricLogger:
         config: Mapping[str, Any] | None = None,
         resume_step: int | None = None,
     ) -> None:
-        unknown = [b for b in cfg.backends if b not in BACKENDS]
-        if unknown:
-            raise ValueError(f"logger.backends has {unknown}; allowed: {', '.join(BACKENDS)}")
+        validate_logger(cfg)
         run_dir.mkdir(parents=True, exist_ok=True)
         self.csv = CSVMetrics(run_dir / METRICS_FILE, resume_step)
-        self.backends: list[Any] = []
+        self.tensorboard: TensorBoardMetrics | None = None
         if "tensorboard" in cfg.backends:
-            from torchrl.record.loggers import TensorboardLogger
-
-            self.backends.append(TensorboardLogger(exp_name=run_name, log_dir=str(run_dir / "tb")))
+            self.tensorboard = TensorBoardMetrics(run_dir / TENSORBOARD_DIR, run_name, resume_step)
+        self.wandb: Any = None
         if "wandb" in cfg.backends:
             mode = wandb_mode(cfg.wandb_mode)
             if mode != "disabled":
                 from torchrl.record.loggers import WandbLogger
 
-                wandb_logger = WandbLogger(
+                self.wandb = WandbLogger(
                     exp_name=run_name,
                     offline=mode == "offline",
                     save_dir=str(run_dir),
                     project=cfg.wandb_project,
                     config=dict(config or {}),
                 )
-                self.backends.append(wandb_logger)
 
     def log(self, step: int, metrics: Mapping[str, float]) -> None:
         """Log finite and non-finite values alike (a NaN in the CSV is a finding, not noise)."""
         self.csv.log(step, metrics)
-        for backend in self.backends:
+        for backend in (self.tensorboard, self.wandb):
+            if backend is None:
+                continue
             for name, value in metrics.items():
                 if not math.isnan(value):
                     backend.log_scalar(name, value, step=step)
 
     def close(self) -> None:
-        for backend in self.backends:
-            experiment = getattr(backend, "experiment", None)
-            for method in ("flush", "close", "finish"):
-                if hasattr(experiment, method):
-                    getattr(experiment, method)()
-                    break
+        if self.tensorboard is not None:
+            self.tensorboard.close()
+        if self.wandb is not None:
+            self.wandb.experiment.finish()
+
+
+#: Events of a game shown in progress lines: totals per episode, not per team.
+_PER_TEAM = re.compile(r"_\d+_per_episode$")
+
+
+class ProgressLines:
+    """A progress line every tenth (``parts``) of the budget, for logs without a bar.
+
+    Each line: frames trained of the budget, speeds since the previous line (frames per
+    second of the whole loop, and of collection alone: ``env_steps_per_s``), the latest
+    logged mean return of each group and the game's events per episode, elapsed time
+    and an estimate of the time left.
+
+    Args:
+        budget: ``algo.max_steps``.
+        frames: frames already trained (a resume starts from the checkpoint's).
+        parts: lines per budget.
+
+    Examples:
+        >>> lines = ProgressLines(budget=1000, frames=0)
+        >>> line = lines.update(100, collect_seconds=0.5, metrics={"racket/cumulative_reward": 0.1})
+        >>> line.split(" | ")[0], line.split(" | ")[2]
+        ('frames 100/1,000 (10%)', 'racket reward +0.100')
+        >>> lines.update(150, collect_seconds=0.5, metrics={}) is None
+        True
+    """
+
+    def __init__(self, budget: int, frames: int, parts: int = 10) -> None:
+        self.budget = budget
+        self.period = max(1, budget // parts)
+        self.start = time.perf_counter()
+        self.start_frames = frames
+        self.frames = frames
+        self.mark = (self.start, frames, 0.0)  # time, frames, collection seconds at the last line
+        self.collect_seconds = 0.0
+
+    def update(
+        self, frames: int, collect_seconds: float, metrics: Mapping[str, float]
+    ) -> str | None:
+        """Account one update; the line to write if it crossed a tenth of the budget."""
+        previous, self.frames = self.frames, frames
+        self.collect_seconds += collect_seconds
+        if previous // self.period == frames // self.period and frames < self.budget:
+            return None
+        now = time.perf_counter()
+        since, since_frames, since_collect = self.mark
+        self.mark = (now, frames, self.collect_seconds)
+        new_frames = frames - since_frames
+        speed = new_frames / max(now - since, 1e-9)
+        env_speed = new_frames / max(self.collect_seconds - since_collect, 1e-9)
+        overall = (frames - self.start_frames) / max(now - self.start, 1e-9)
+        left = max(self.budget - frames, 0) / max(overall, 1e-9)
+        parts = [
+            f"frames {frames:,}/{self.budget:,} ({100 * frames / self.budget:.0f}%)",
+            f"{speed:,.0f} frames/s (env {env_speed:,.0f} steps/s)",
+        ]
+        for name, value in metrics.items():
+            if name.endswith("/cumulative_reward"):
+                parts.append(f"{name.split('/')[0]} reward {value:+.3f}")
+        for name, value in metrics.items():
+            if name.startswith("events/") and not _PER_TEAM.search(name):
+                event = name.removeprefix("events/").removesuffix("_per_episode")
+                parts.append(f"{event} {value:.2f}/episode")
+        parts.append(f"elapsed {_duration(now - self.start)}, left ~{_duration(left)}")
+        return " | ".join(parts)
+
+
+def _duration(seconds: float) -> str:
+    """``3725.2 -> '1:02:05'``."""
+    return str(datetime.timedelta(seconds=round(seconds)))

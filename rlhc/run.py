@@ -1,32 +1,271 @@
 """Entry point: ``python -m rlhc.run env=<tennis|soccer> critic=<ppo|hierarchical|…>``.
 
-Wiring only: compose and validate the config, then hand it to the trainer.
-Outputs go to ``outputs/<env>/<critic>/<time>/`` (multirun: ``multirun/<time>/<job>/``).
+Wiring only: compose and check the config, hand it to the trainer, report how the run
+ended. Outputs go to ``outputs/<env>/<critic>/<time>/`` (multirun:
+``multirun/<time>/<num>_<key>-<value>_…/``); ``resume=<run dir or checkpoint>``
+continues in the resumed run's own directory (the ``rlhc.run_dir`` resolver of
+``conf/train.yaml``) unless ``hydra.run.dir`` is given.
+
+How it ends, and its exit code:
+
+| case | output | code |
+|---|---|---|
+| trained to ``algo.max_steps`` | ``results in <run dir>`` | 0 |
+| ``resume=`` of a run that reached ``algo.max_steps`` | that it is finished; nothing is written | 0 |
+| a user error: a bad value (:class:`~rlhc.builders.ConfigError`), a resume path that holds no checkpoint or whose settings differ (:class:`~rlhc.checkpoint.ResumeError`), a Hydra override or composition error | ``rlhc.run: error: <one line>``; no run directory is left behind | 2 |
+| SIGINT / SIGTERM during training | where the checkpoint is and the command that resumes it | 130 / 143 |
+
+``HYDRA_FULL_ERROR=1`` shows the traceback of a user error instead. Any other error is
+a bug and keeps its traceback (exit 1).
 """
 
 from __future__ import annotations
 
+import copy
+import logging
+import os
+import shlex
+import shutil
+import sys
 from pathlib import Path
+from typing import Any
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
-from omegaconf import DictConfig, OmegaConf
+from hydra.errors import HydraException
+from hydra.experimental.callback import Callback
+from hydra.types import RunMode
+from omegaconf import DictConfig, OmegaConf, open_dict, read_write
+from omegaconf.errors import OmegaConfBaseException
 
+from rlhc.builders import ConfigError, Layout, validate
+from rlhc.checkpoint import ResumeError, load_checkpoint, run_dir_of
 from rlhc.config import TrainConfig, register_configs
-from rlhc.trainer import Trainer
+from rlhc.interrupt import TrainingInterrupted
+from rlhc.loggers import validate_logger
+from rlhc.trainer import Trainer, check_resumable
+
+PROGRAM = "rlhc.run"
+#: An absolute path: Hydra reads a relative one as a package when this file runs as the
+#: module ``rlhc.run`` (see the end of the file), and ``conf`` is not a package.
+CONFIG_DIR = str(Path(__file__).resolve().parents[1] / "conf")
+#: Exit code of a user error (as argparse's).
+USAGE_ERROR = 2
+#: Errors a user fixes by changing the command line, reported in one line.
+USER_ERRORS = (ConfigError, ResumeError, HydraException, OmegaConfBaseException)
+
+log = logging.getLogger(__name__)
+#: Sweep directories of multirun jobs that failed on a user error: :func:`cli` removes
+#: those left holding only Hydra's ``multirun.yaml`` (jobs run in this process only).
+_failed_sweeps: set[Path] = set()
+
+
+class PreflightFailed(BaseException):
+    """A user error found by :class:`Preflight`, carried past Hydra to :func:`cli`.
+
+    A ``BaseException``: Hydra turns a callback's ``Exception`` into a warning and runs
+    the job anyway.
+    """
+
+    def __init__(self, error: Exception) -> None:
+        super().__init__(str(error))
+        self.error = error
+
+
+def run_directory(resume: str | None, default: str) -> str:
+    """``hydra.run.dir``: the resumed run's directory, else ``default`` (a new one).
+
+    Registered as the ``rlhc.run_dir`` resolver; ``hydra.run.dir=`` on the command line
+    replaces the interpolation, so an explicit directory always wins.
+    """
+    run_dir = run_dir_of(resume) if resume else None
+    return default if run_dir is None else str(run_dir)
+
 
 register_configs()
+# ``replace``: ``python -m rlhc.run`` executes this file twice, as ``__main__`` and as
+# ``rlhc.run`` (see the end of the file).
+OmegaConf.register_new_resolver("rlhc.run_dir", run_directory, replace=True)
 
 
-@hydra.main(version_base="1.3", config_path="../conf", config_name="train")
+def preflight(cfg: TrainConfig) -> dict[str, Any] | None:
+    """Check everything that can fail before a file is written; the checkpoint to resume.
+
+    Raises:
+        ConfigError: a value the schema let through but the trainer cannot use.
+        ResumeError: ``cfg.resume`` holds no loadable checkpoint, or one trained with
+            settings a resume cannot change.
+    """
+    validate(cfg)
+    Layout.from_config(cfg)
+    validate_logger(cfg.logger)
+    if not cfg.resume:
+        return None
+    try:
+        state = load_checkpoint(cfg.resume)
+    except (FileNotFoundError, ValueError) as error:
+        raise ResumeError(f"resume={cfg.resume!r}: {error}") from error
+    check_resumable(cfg, state)
+    return state
+
+
+def finished_message(cfg: TrainConfig, state: dict[str, Any] | None) -> str | None:
+    """What to say when ``state`` already reached the budget, else ``None``."""
+    if state is None or int(state["frames"]) < cfg.algo.max_steps:
+        return None
+    return (
+        f"{shown(Path(state['path']))} has trained {int(state['frames']):,} frames of "
+        f"algo.max_steps={cfg.algo.max_steps:,}: the run is finished, nothing to do "
+        "(raise algo.max_steps to continue it)"
+    )
+
+
+class Preflight(Callback):
+    """Hydra callback: :func:`preflight` a single run before Hydra creates its directory.
+
+    Configured in ``conf/train.yaml`` (``hydra.callbacks``). A finished run ends here
+    (exit 0) without writing anything; a user error reaches :func:`cli` as
+    :class:`PreflightFailed`. A multirun checks each job in :func:`main` instead (and
+    removes the job's directory).
+    """
+
+    def on_run_start(self, config: DictConfig, **kwargs: Any) -> None:
+        task = copy.deepcopy(config)
+        with read_write(task), open_dict(task):
+            del task["hydra"]
+        try:
+            cfg: TrainConfig = OmegaConf.to_object(task)  # type: ignore[assignment]
+            state = preflight(cfg)
+        except USER_ERRORS as error:
+            raise PreflightFailed(error) from error
+        message = finished_message(cfg, state)
+        if message is not None:
+            print(message, flush=True)
+            sys.exit(0)
+
+
+@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")
 def main(cfg: DictConfig) -> float:
     """Train one run; returns the last logged mean cumulative reward (for sweepers)."""
     train_cfg: TrainConfig = OmegaConf.to_object(cfg)  # type: ignore[assignment]
     run_dir = Path(HydraConfig.get().runtime.output_dir)
-    metrics = Trainer(train_cfg, run_dir).train()
+    try:
+        state = preflight(train_cfg)
+    except (ConfigError, ResumeError):
+        remove_if_unused(run_dir)
+        if HydraConfig.get().mode == RunMode.MULTIRUN:
+            _failed_sweeps.add(Path(HydraConfig.get().sweep.dir))
+        raise
+    message = finished_message(train_cfg, state)
+    if message is not None:
+        log.info(message)
+        return float("nan")
+    try:
+        metrics = Trainer(train_cfg, run_dir).train()
+    except TrainingInterrupted as stop:
+        log.warning(
+            f"{stop.signal_name}: stopped at {stop.frames:,} frames of {train_cfg.algo.max_steps:,}; "
+            f"checkpoint {shown(stop.checkpoint)}; resume with: {resume_command(run_dir)}"
+        )
+        sys.exit(stop.exit_code)
+    log.info(f"results in {shown(run_dir)}")
     rewards = [v for k, v in metrics.items() if k.endswith("/cumulative_reward")]
     return sum(rewards) / len(rewards) if rewards else float("nan")
 
 
+def cli() -> None:
+    """``python -m rlhc.run``: :func:`main`, with user errors reported in one line (exit 2)."""
+    full_error = os.environ.get("HYDRA_FULL_ERROR") == "1"
+    # Hydra's documented switch to let exceptions through unprinted: reported below.
+    os.environ["HYDRA_FULL_ERROR"] = "1"
+    try:
+        try:
+            main()
+        except PreflightFailed as failed:
+            raise failed.error from None
+    except KeyboardInterrupt:
+        # Before training (building the envs) or a second Ctrl-C: nothing more to save.
+        print(f"{PROGRAM}: interrupted; checkpoints written so far are complete", file=sys.stderr)
+        sys.exit(130)
+    except USER_ERRORS as error:
+        for sweep in _failed_sweeps:
+            if sweep.is_dir() and set(os.listdir(sweep)) <= {"multirun.yaml"}:
+                shutil.rmtree(sweep)
+                remove_empty_parents(sweep)
+        if full_error:
+            raise
+        print(f"{PROGRAM}: error: {one_line(error)}", file=sys.stderr)
+        sys.exit(USAGE_ERROR)
+
+
+def one_line(error: BaseException) -> str:
+    """An error and its causes in one line, without OmegaConf's and Hydra's diagnostics.
+
+    Examples:
+        >>> one_line(ValueError("Could not override 'algo.lrr'.\\nTo append use +algo.lrr=1"))
+        "Could not override 'algo.lrr'. To append use +algo.lrr=1"
+    """
+    parts: list[str] = []
+    current: BaseException | None = error
+    while current is not None:
+        for raw in str(current).splitlines():
+            line = raw.strip()
+            if line.startswith(("Config search path", "Set the environment variable")):
+                break  # the rest is Hydra's search path, or advice this line replaces
+            if not line or line.startswith(_DIAGNOSTICS) or any(line in p for p in parts):
+                continue
+            if raw[:1].isspace() and parts:  # an indented item of a list (e.g. options)
+                parts[-1] += ("" if parts[-1].endswith(":") else ",") + f" {line}"
+            else:
+                parts.append(line)
+        current = current.__cause__
+    return " ".join(parts)
+
+
+#: OmegaConf's lines that locate a key in its own types.
+_DIAGNOSTICS = ("full_key:", "reference_type=", "object_type=", "key:", "value:")
+
+
+def remove_if_unused(run_dir: Path) -> None:
+    """Remove a run directory that holds only what Hydra wrote before the job started."""
+    hydra_files = {".hydra", f"{HydraConfig.get().job.name}.log"}
+    if run_dir.is_dir() and set(os.listdir(run_dir)) <= hydra_files:
+        shutil.rmtree(run_dir)
+
+
+def remove_empty_parents(path: Path) -> None:
+    """Remove the now empty directories above ``path``, up to the working directory."""
+    cwd = Path.cwd()
+    for parent in Path(os.path.abspath(path)).parents:
+        if parent == cwd or not parent.is_relative_to(cwd):
+            return
+        try:
+            parent.rmdir()
+        except OSError:  # not empty
+            return
+
+
+def resume_command(run_dir: Path) -> str:
+    """The command line that continues this run in ``run_dir``."""
+    overrides = [
+        o for o in HydraConfig.get().overrides.task if o.lstrip("+~").split("=")[0] != "resume"
+    ]
+    python = shown(Path(sys.executable))
+    return shlex.join([python, "-m", PROGRAM, *overrides, f"resume={shown(run_dir)}"])
+
+
+def shown(path: Path) -> str:
+    """``path`` relative to the working directory when inside it, else absolute."""
+    absolute = Path(os.path.abspath(path))
+    try:
+        return str(absolute.relative_to(Path.cwd()))
+    except ValueError:
+        return str(absolute)
+
+
 if __name__ == "__main__":
-    main()
+    # Run the module's ``rlhc.run`` copy, the one Hydra imports for the callback, so
+    # that both share one :class:`PreflightFailed` (and one logger name).
+    from rlhc.run import cli as run_cli
+
+    run_cli()

@@ -12,12 +12,15 @@ world-decisions ("frames"), buffer and minibatch count agent-experiences per gro
 
 from __future__ import annotations
 
+import contextlib
 import copy
+import logging
 import math
 import random
 import sys
 import time
 from collections import defaultdict
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +32,7 @@ from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 from torchrl.collectors import Collector
 from torchrl.envs import EnvBase, TransformedEnv
 from tqdm import tqdm
+from tqdm.contrib.logging import logging_redirect_tqdm
 
 from rlhc.builders import (
     EPISODE_REWARD,
@@ -41,6 +45,8 @@ from rlhc.builders import (
 )
 from rlhc.checkpoint import (
     CHECKPOINT_DIR,
+    ResumeError,
+    config_differences,
     load_checkpoint,
     rng_states,
     save_checkpoint,
@@ -49,10 +55,13 @@ from rlhc.checkpoint import (
 from rlhc.config import PPOConfig, TrainConfig
 from rlhc.envs import make_env
 from rlhc.envs.base import BatchedGame
+from rlhc.interrupt import StopSignals, TrainingInterrupted
 from rlhc.league import LEARNER, LEARNER_TEAM, OPPONENT, League, LeaguePolicy
-from rlhc.loggers import MetricLogger
+from rlhc.loggers import MetricLogger, ProgressLines
 from rlhc.modules import make_actor
 from rlhc.objectives import LOSS_KEYS
+
+log = logging.getLogger(__name__)
 
 #: Where ML-Agents 0.5 decays the entropy coefficient and the clip range to (linearly
 #: over the budget, like the learning rate, which goes to 0).
@@ -136,6 +145,30 @@ def standardise_advantage(data: TensorDictBase, group: str, weight: torch.Tensor
     data.set((group, "advantage"), standard.reshape(advantage.shape))
 
 
+def config_container(cfg: TrainConfig) -> dict[str, Any]:
+    """``cfg`` as the plain nested dict a checkpoint stores."""
+    return OmegaConf.to_container(OmegaConf.structured(cfg), resolve=True)  # type: ignore[return-value]
+
+
+def check_resumable(cfg: TrainConfig, state: Mapping[str, Any]) -> None:
+    """Refuse to continue ``state`` with settings its weights do not belong to.
+
+    Args:
+        cfg: the config of the run that would continue.
+        state: a loaded checkpoint (:func:`~rlhc.checkpoint.load_checkpoint`).
+
+    Raises:
+        ResumeError: naming every differing setting (:func:`~rlhc.checkpoint.config_differences`).
+    """
+    stored = state.get("config") or {"env": {"name": state["env"]}}
+    differing = config_differences(stored, config_container(cfg))
+    if differing:
+        raise ResumeError(
+            f"resume={cfg.resume!r}: {state['path']} was trained with other settings, and a "
+            f"resume cannot change them (checkpoint -> now): {'; '.join(differing)}"
+        )
+
+
 def cut_trajectories(batch: TensorDictBase, groups: list[str], horizon: int) -> None:
     """Cut every world's trajectory each ``horizon`` decisions of ``batch`` ``[N, T]``.
 
@@ -181,11 +214,8 @@ class Trainer:
         if cfg.threads > 0:
             torch.set_num_threads(cfg.threads)
         resume = load_checkpoint(cfg.resume) if cfg.resume else None
-        if resume is not None and resume["env"] != cfg.env.name:
-            raise ValueError(
-                f"resume={cfg.resume!r} is a {resume['env']!r} checkpoint; this run is "
-                f"env={cfg.env.name!r}"
-            )
+        if resume is not None:
+            check_resumable(cfg, resume)
         seed_everything(cfg.seed)
 
         self.env = (
@@ -221,13 +251,23 @@ class Trainer:
             cfg.logger,
             run_dir,
             run_name=run_dir.name,
-            config=OmegaConf.to_container(OmegaConf.structured(cfg), resolve=True),  # type: ignore[arg-type]
+            config=config_container(cfg),
             resume_step=self.frames if resume is not None else None,
         )
 
     # --- the loop -------------------------------------------------------------------
     def train(self) -> dict[str, float]:
-        """Train until ``algo.max_steps`` frames; returns the last logged metrics."""
+        """Train until ``algo.max_steps`` frames; returns the last logged metrics.
+
+        SIGINT and SIGTERM stop it cleanly (:mod:`rlhc.interrupt`): the update in
+        progress finishes (a collection in progress too), a checkpoint is written and
+        :class:`~rlhc.interrupt.TrainingInterrupted` is raised. A progress line goes to
+        the ``logging`` module every tenth of the budget (with the bar on a terminal,
+        above it).
+
+        Raises:
+            TrainingInterrupted: on SIGINT or SIGTERM, after the checkpoint is written.
+        """
         cfg = self.cfg
         remaining = cfg.algo.max_steps - self.frames
         last_metrics: dict[str, float] = {}
@@ -249,11 +289,20 @@ class Trainer:
             disable=not self._show_progress(),
             dynamic_ncols=True,
         )
+        lines = ProgressLines(cfg.algo.max_steps, self.frames)
+        stop = StopSignals()
+        saved: tuple[int, Path] | None = None
         episodes: dict[str, list[torch.Tensor]] = defaultdict(list)
         summary: dict[str, list[float]] = defaultdict(list)
         start = time.perf_counter() - self.wall_time
         collect_start = time.perf_counter()
-        try:
+        with contextlib.ExitStack() as context:
+            if not progress.disable:
+                context.enter_context(logging_redirect_tqdm())
+            context.callback(self.logger.close)
+            context.callback(collector.shutdown)
+            context.callback(progress.close)
+            context.enter_context(stop)
             for batch in collector:
                 collect_time = time.perf_counter() - collect_start
                 self._collect_episode_stats(batch, episodes)
@@ -283,14 +332,16 @@ class Trainer:
                     summary.clear()
                     episodes.clear()
                 if self._crossed(previous, cfg.checkpoint_freq) or self._finished():
-                    self.save()
-                if self._finished():
+                    saved = (self.frames, self.save())
+                line = lines.update(self.frames, collect_time, last_metrics)
+                if line is not None:
+                    log.info(line)
+                if self._finished() or stop.received is not None:
                     break
                 collect_start = time.perf_counter()
-        finally:
-            progress.close()
-            collector.shutdown()
-            self.logger.close()
+        if stop.received is not None and not self._finished():
+            checkpoint = saved[1] if saved and saved[0] == self.frames else self.save()
+            raise TrainingInterrupted(stop.received, self.frames, checkpoint)
         return last_metrics
 
     def _update(self, batch: TensorDictBase) -> dict[str, float]:
