@@ -2,26 +2,8 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
-from hydra import compose, initialize_config_dir
-from omegaconf import OmegaConf
-
-from rlhc.config import TrainConfig, register_configs
-
-CONF = Path(__file__).resolve().parents[1] / "conf"
-register_configs()
-
-
-def load(*overrides: str) -> TrainConfig:
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose(config_name="train", overrides=list(overrides))
-    return OmegaConf.to_object(cfg)  # type: ignore[return-value]
-
-
-def options(group: str) -> list[str]:
-    return sorted(p.stem for p in (CONF / group).glob("*.yaml"))
+from configs import load, options
 
 
 def test_smoke_keeps_wandb_among_the_backends() -> None:

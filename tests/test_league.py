@@ -7,14 +7,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
+from configs import load_smoke as load
 from hydra.errors import ConfigCompositionException
-from omegaconf import OmegaConf
 from torchrl.collectors import Collector
 
 from rlhc.builders import ConfigError, validate
 from rlhc.checkpoint import load_checkpoint
-from rlhc.config import TrainConfig, register_configs
 from rlhc.evaluation.elo import expected_score
 from rlhc.league import (
     KINDS,
@@ -28,15 +26,6 @@ from rlhc.league import (
     allocate_worlds,
 )
 from rlhc.trainer import Trainer
-
-CONF = Path(__file__).resolve().parents[1] / "conf"
-register_configs()
-
-
-def load(*overrides: str) -> TrainConfig:
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose(config_name="train", overrides=["experiment=smoke", *overrides])
-    return OmegaConf.to_object(cfg)  # type: ignore[return-value]
 
 
 # --- shares ---------------------------------------------------------------------------

@@ -7,26 +7,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
-from omegaconf import OmegaConf
+from configs import load_smoke as load
 from tensordict import TensorDict
 from torchrl.envs import TransformedEnv
 
 from rlhc.builders import ConfigError, validate
-from rlhc.config import TrainConfig, register_configs
 from rlhc.envs import make_env
 from rlhc.envs.soccer.shaping import ball_progress
 from rlhc.shaping import PotentialShaping
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
-register_configs()
 GAMMA = 0.9
-
-
-def load(*overrides: str) -> TrainConfig:
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose(config_name="train", overrides=["experiment=smoke", *overrides])
-    return OmegaConf.to_object(cfg)  # type: ignore[return-value]
 
 
 def test_a_hand_made_trajectory_telescopes_to_minus_the_first_potential() -> None:

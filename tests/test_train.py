@@ -11,26 +11,16 @@ from pathlib import Path
 
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
-from omegaconf import OmegaConf
+from configs import load_smoke as load
+from configs import options
 
 from rlhc.checkpoint import load_checkpoint
-from rlhc.config import TrainConfig, register_configs
 from rlhc.envs import GAMES
 from rlhc.trainer import Trainer
 
-ROOT = Path(__file__).resolve().parents[1]
-CONF = ROOT / "conf"
-CRITICS = sorted(p.stem for p in (CONF / "critic").glob("*.yaml"))
+CRITICS = options("critic")
 ENVS = sorted(GAMES)
 TIMING = ("env_steps_per_s", "train_frames_per_s", "wall_time")
-register_configs()
-
-
-def load(*overrides: str) -> TrainConfig:
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose(config_name="train", overrides=["experiment=smoke", *overrides])
-    return OmegaConf.to_object(cfg)  # type: ignore[return-value]
 
 
 def read_metrics(run_dir: Path) -> list[dict[str, float]]:

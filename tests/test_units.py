@@ -11,13 +11,12 @@ from pathlib import Path
 
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
-from omegaconf import OmegaConf
+from configs import load
 from tensordict import TensorDict
 from tensordict.nn import TensorDictModule
 
 from rlhc.builders import ConfigError, Layout, validate
-from rlhc.config import PPOConfig, TrainConfig, register_configs
+from rlhc.config import PPOConfig
 from rlhc.objectives import HierarchicalValueEstimator
 from rlhc.trainer import (
     FINAL_CLIP_EPSILON,
@@ -26,15 +25,6 @@ from rlhc.trainer import (
     cut_trajectories,
     schedules,
 )
-
-CONF = Path(__file__).resolve().parents[1] / "conf"
-register_configs()
-
-
-def load(*overrides: str) -> TrainConfig:
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose(config_name="train", overrides=list(overrides))
-    return OmegaConf.to_object(cfg)  # type: ignore[return-value]
 
 
 # --- the layout of an update ---------------------------------------------------------
