@@ -60,6 +60,17 @@ def validate(cfg: TrainConfig) -> None:
     for name, value in positive.items():
         if value < 1:
             raise ConfigError(f"{name}={value}; allowed: an integer >= 1")
+    non_negative = {
+        "eval_freq": (cfg.eval_freq, "0 (off) or a number of world-decisions"),
+        "threads": (cfg.threads, "0 (torch's default) or a thread count"),
+    }
+    for name, (value, allowed) in non_negative.items():
+        if value < 0:
+            raise ConfigError(f"{name}={value}; allowed: {allowed}")
+    if cfg.eval_freq and cfg.eval_matches < 2:
+        raise ConfigError(
+            f"eval_matches={cfg.eval_matches}; allowed: an integer >= 2 (half on each side)"
+        )
     if cfg.env.num_envs is not None and cfg.env.num_envs < 1:
         raise ConfigError(f"env.num_envs={cfg.env.num_envs}; allowed: null or an integer >= 1")
     if not 0.0 < cfg.algo.gamma <= 1.0 or not 0.0 <= cfg.algo.lmbda <= 1.0:

@@ -222,3 +222,13 @@ def test_the_frame_based_presets_rebuild_the_old_updates(
     if env == "tennis":
         assert (cfg.env.decision_interval, cfg.env.fault_penalty) == (2, "nearest")
         assert cfg.algo.max_steps == 200_000
+
+
+@pytest.mark.parametrize(
+    ("override", "named"),
+    [("eval_freq=-5", "eval_freq=-5"), ("threads=-1", "threads=-1")],
+)
+def test_negative_periods_and_thread_counts_are_refused(override: str, named: str) -> None:
+    with pytest.raises(ConfigError, match="allowed") as error:
+        validate(load("env=tennis", override))
+    assert named in str(error.value)
