@@ -29,7 +29,10 @@ CURVES: dict[str, dict[str, str]] = {
         "events/hits_over_net_per_episode": "over-the-net hits per point",
         "episode_length": "episode length (decisions)",
     },
-    "soccer": {"episode_length": "episode length (decisions)"},
+    "soccer": {
+        "episode_terminated": "goal rate (share of episodes ending in a goal)",
+        "episode_length": "episode length (decisions)",
+    },
 }
 SMOOTHING = 0.8
 
