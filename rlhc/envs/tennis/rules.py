@@ -12,9 +12,9 @@ ball may not touch the ground):
 The paper's Table 1 gives "−0.1 when agents miss the ball": the team that misses pays.
 ``fault_penalty="nearest"`` (the rule of earlier versions) charges one racket instead:
 the one of the missing team nearest to where the ball landed, or the last hitter.
-Measured with that rule, each racket learns to run *from* a falling ball and leave the
-penalty to its partner (the correlation of a racket's move with the ball's offset in
-its half fell from −0.19 to −0.58 over 0.5 M frames), so ``"team"`` is the default.
+With that rule, in training runs of the earlier frame-based trainer, each racket
+learned to run *from* a falling ball and leave the penalty to its partner (its move
+anti-correlated with the ball's offset in its half), so ``"team"`` is the default.
 
 Edge cases, decided here once:
 
