@@ -71,6 +71,7 @@ def bench_overrides(iterations: int, frames_per_batch: int) -> list[str]:
         f"algo.max_steps={iterations * frames_per_batch}",
         "logger.backends=[csv]",
         "logger.progress=false",
+        f"logger.summary_freq={frames_per_batch}",  # one metrics row per iteration
         "checkpoint_freq=1000000000",  # one checkpoint, at the end, outside the timing
     ]
 

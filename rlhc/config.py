@@ -162,6 +162,11 @@ class TrainConfig:
         eval_freq: every this many world-decisions, play ``eval_matches`` matches against the
             scripted team and log the win rate (``0``: never).
         eval_matches: matches per periodic evaluation (half on each side).
+        parallel: how the processes of ``torchrun --nproc_per_node=N`` (N > 1) share a
+            run (:mod:`rlhc.distributed`): ``data`` (each steps its share of the worlds,
+            gradients all-reduced every minibatch: the same update as one process) or
+            ``pipeline`` (rank 0 updates while the others collect the next batch with
+            the policy one update older). Ignored by a single process.
     """
 
     env: Any = MISSING
@@ -178,6 +183,7 @@ class TrainConfig:
     threads: int = 1
     eval_freq: int = 0
     eval_matches: int = 20
+    parallel: str = "data"
 
 
 def register_configs() -> None:
