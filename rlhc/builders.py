@@ -17,7 +17,15 @@ from rlhc.config import TrainConfig
 from rlhc.envs import make_env, make_game
 from rlhc.envs.tennis.rules import FAULT_PENALTIES
 from rlhc.league import validate_league
-from rlhc.modules import NetworkConfig, make_actor, make_manager_critic, make_worker_critic
+from rlhc.modules import (
+    NetworkConfig,
+    make_actor,
+    make_actor_value,
+    make_manager_critic,
+    make_worker_critic,
+    shared_trunk_error,
+)
+from rlhc.modules.specs import action_spec
 from rlhc.objectives import FUSIONS, HierarchicalPPOLoss, make_ppo_loss
 from rlhc.shaping import PotentialShaping, game_potential
 
@@ -161,8 +169,14 @@ class Layout:
         time_horizon: int,
         agents_per_world: int,
         num_envs: int | None,
+        shards: int = 1,
     ) -> Layout:
-        """The layout of an update; :class:`ConfigError` names any setting that cannot work."""
+        """The layout of an update; :class:`ConfigError` names any setting that cannot work.
+
+        ``shards`` data-parallel processes (:mod:`rlhc.distributed`) each step
+        ``num_envs / shards`` worlds and compute ``1 / shards`` of every minibatch: both
+        must split evenly. ``num_envs`` counts the worlds of every process.
+        """
         n = agents_per_world
         if batch_size % n:
             raise ConfigError(
@@ -177,8 +191,23 @@ class Layout:
         frames = math.ceil(buffer_size / n)
         divisors = [d for d in range(1, frames + 1) if frames % d == 0]
         if num_envs is None:
-            # The fewest worlds that keep each world's share within one time horizon.
-            num_envs = next(d for d in divisors if frames // d <= time_horizon)
+            # The fewest worlds that keep each world's share within one time horizon
+            # (and split over the processes).
+            num_envs = next(
+                (d for d in divisors if frames // d <= time_horizon and d % shards == 0), None
+            )
+            if num_envs is None:
+                raise ConfigError(
+                    f"{shards} processes cannot share the {frames} world-decisions of an "
+                    f"update (algo.buffer_size={buffer_size} experiences / {n} agents per "
+                    f"group); allowed: a number of processes that divides {frames}"
+                )
+        elif num_envs % shards:
+            raise ConfigError(
+                f"env.num_envs={num_envs} worlds do not split over {shards} processes; "
+                f"allowed: null or a multiple of {shards} that divides {frames}: "
+                + ", ".join(str(d) for d in divisors if d % shards == 0 and d <= 1024)
+            )
         elif frames % num_envs:
             shown = ", ".join(str(d) for d in divisors if d <= 1024)
             raise ConfigError(
@@ -187,6 +216,12 @@ class Layout:
                 f"allowed: null or one of {shown}"
             )
         minibatch = batch_size // n
+        if minibatch % shards:
+            raise ConfigError(
+                f"algo.batch_size={batch_size} ({minibatch} world-decisions) does not split "
+                f"over {shards} processes; allowed: a multiple of {n * shards} "
+                f"({n} agents per group x {shards} processes)"
+            )
         return Layout(
             agents_per_world=n,
             num_envs=num_envs,
@@ -198,14 +233,18 @@ class Layout:
         )
 
     @staticmethod
-    def from_config(cfg: TrainConfig) -> Layout:
-        """The layout of ``cfg`` (builds a one-world game to count its agents)."""
+    def from_config(cfg: TrainConfig, shards: int = 1) -> Layout:
+        """The layout of ``cfg`` over ``shards`` data-parallel processes.
+
+        Builds a one-world game to count its agents.
+        """
         return Layout.build(
             buffer_size=cfg.algo.buffer_size,
             batch_size=cfg.algo.batch_size,
             time_horizon=cfg.algo.time_horizon,
             agents_per_world=agents_per_world(cfg),
             num_envs=cfg.env.num_envs,
+            shards=shards,
         )
 
 
@@ -259,27 +298,68 @@ def group_names(env: EnvBase) -> list[str]:
 
 
 def network_config(cfg: TrainConfig) -> NetworkConfig:
+    """The network shape of ``cfg.model`` (the same for every group).
+
+    Examples:
+        >>> from rlhc.config import TrainConfig
+        >>> network_config(TrainConfig()).shared_trunk
+        False
+    """
     return NetworkConfig(
         num_layers=cfg.model.num_layers,
         hidden_size=cfg.model.hidden_size,
         activation=cfg.model.activation,
         initial_action_scale=cfg.model.initial_action_scale,
+        shared_trunk=cfg.model.shared_trunk,
     )
+
+
+def check_shared_trunk(cfg: TrainConfig, env: EnvBase) -> None:
+    """Refuse ``model.shared_trunk=true`` unless every group of ``env`` acts discretely.
+
+    Checked against the env's action specs (the source of truth, for any env), when the
+    networks are built: before the first step of training.
+
+    Raises:
+        ConfigError: naming the value, the env, the group and what is allowed.
+    """
+    if not cfg.model.shared_trunk:
+        return
+    for group in group_names(env):
+        problem = shared_trunk_error(group, action_spec(env, group))
+        if problem is not None:
+            raise ConfigError(
+                f"model.shared_trunk=true on env={cfg.env.name!r}: {problem}; allowed: "
+                "false, or true on an env with discrete actions (soccer)"
+            )
 
 
 def make_agents(
     cfg: TrainConfig, env: EnvBase
 ) -> tuple[dict[str, torch.nn.Module], dict[str, HierarchicalPPOLoss]]:
-    """One actor and one PPO loss (owning both critics) per group."""
+    """One actor and one PPO loss (owning both critics) per group.
+
+    With ``model.shared_trunk`` the actor and the worker critic are the two operators of
+    one :func:`~rlhc.modules.make_actor_value` (the same trunk parameters).
+
+    Raises:
+        ConfigError: ``model.shared_trunk=true`` on an env with continuous actions.
+    """
+    check_shared_trunk(cfg, env)
     net = network_config(cfg)
     actors: dict[str, torch.nn.Module] = {}
     losses: dict[str, HierarchicalPPOLoss] = {}
     for group in group_names(env):
-        actor = make_actor(env, group, net)
+        if net.shared_trunk:
+            shared = make_actor_value(env, group, net)
+            actor, worker_critic = shared.get_policy_operator(), shared.get_value_operator()
+        else:
+            actor = make_actor(env, group, net)
+            worker_critic = make_worker_critic(env, group, net)
         actors[group] = actor
         losses[group] = make_ppo_loss(
             actor=actor,
-            worker_critic=make_worker_critic(env, group, net),
+            worker_critic=worker_critic,
             manager_critic=make_manager_critic(env, group, net),
             group=group,
             gamma=cfg.algo.gamma,

@@ -106,6 +106,16 @@ class ModelConfig:
             squashing) when the network's scale output is 0, i.e. at initialisation.
             0.5 by measurement (see the README): the shot window is narrow, and a
             scale of 1 buries the policy's aim in noise.
+        shared_trunk: discrete actions (soccer) only: the actor and the worker critic
+            of a group share their hidden layers, with a policy head and a value head
+            on top (ML-Agents 0.5's discrete PPO network, which the paper's soccer
+            brains used); the manager critic stays a separate network. Tennis
+            (continuous actions) refuses it. Default false: every preset and result
+            of this project used separate networks, and sharing saves no compute
+            here (each of TorchRL's two operators runs the trunk: the same FLOP per
+            world-decision, and the same update time within noise, by measurement);
+            what it changes is learning (the value loss also shapes the policy's
+            features), which is untested at full length.
         memory_size: LSTM memory size (recurrent option, Table 3).
         sequence_length: LSTM training sequence length (recurrent option, Table 3).
     """
@@ -115,6 +125,7 @@ class ModelConfig:
     hidden_size: int = 128
     activation: str = "silu"
     initial_action_scale: float = 0.5
+    shared_trunk: bool = False
     memory_size: int = 256
     sequence_length: int = 64
 

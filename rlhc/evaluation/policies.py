@@ -53,7 +53,8 @@ class RestoredPolicy:
     """Per-group actors of a checkpoint with their frozen observation normaliser.
 
     Attributes:
-        actors: ``group -> ProbabilisticActor`` reading ``(g, "observation")``.
+        actors: ``group -> actor`` (:func:`~rlhc.modules.make_actor`) reading
+            ``(g, "observation")``.
         loc: ``group -> [n_g, d_w]`` normaliser mean, or ``None`` (no normalisation).
         scale: ``group -> [n_g, d_w]`` normaliser scale, or ``None``.
     """
@@ -80,6 +81,10 @@ class RestoredPolicy:
 
 def restore_policy(state: Mapping[str, Any], env: EnvBase) -> RestoredPolicy:
     """Rebuild the actors and frozen normaliser of a checkpoint for ``env``.
+
+    The actors are rebuilt with :func:`~rlhc.modules.make_actor` from the checkpoint's
+    ``model`` config, so a ``model.shared_trunk`` run gets its trunk and policy head
+    back (the worker critic's value head is not part of a policy).
 
     Args:
         state: a loaded checkpoint (:func:`rlhc.checkpoint.load_checkpoint`).

@@ -9,6 +9,7 @@ from __future__ import annotations
 from rlhc.modules.actors import make_actor
 from rlhc.modules.config import ACTIVATIONS, NetworkConfig
 from rlhc.modules.critics import make_manager_critic, make_worker_critic
+from rlhc.modules.shared import make_actor_value, shared_trunk_error
 from rlhc.modules.specs import EnvSpecs, HasSpecs
 
 __all__ = [
@@ -17,6 +18,8 @@ __all__ = [
     "HasSpecs",
     "NetworkConfig",
     "make_actor",
+    "make_actor_value",
     "make_manager_critic",
     "make_worker_critic",
+    "shared_trunk_error",
 ]

@@ -5,19 +5,22 @@
 | ``Bounded`` ``[..., n_g, size]`` (tennis) | loc, scale (``NormalParamExtractor``; the scale is ``cfg.initial_action_scale`` for a zero output) | ``TanhNormal`` squashed into the spec's bounds |
 | ``Categorical`` ``[..., n_g]`` (soccer) | logits | ``torch.distributions.Categorical`` (integer actions, as the spec) |
 
-Both write ``(g, "action")`` and its log-probability ``(g, "action_log_prob")``.
+Both write ``(g, "action")`` and its log-probability ``(g, "action_log_prob")``. With
+``cfg.shared_trunk`` a discrete actor is the policy half of
+:func:`~rlhc.modules.shared.make_actor_value` instead (same keys, other parameter names).
 """
 
 from __future__ import annotations
 
 import torch
-from tensordict.nn import NormalParamExtractor, TensorDictModule
+from tensordict.nn import NormalParamExtractor, ProbabilisticTensorDictSequential, TensorDictModule
 from torch import nn
 from torchrl.data import Bounded, Categorical, Composite
 from torchrl.modules import ProbabilisticActor, TanhNormal
 
 from rlhc.modules.config import NetworkConfig
 from rlhc.modules.keys import ACTION, LOC, LOGITS, OBSERVATION, SCALE
+from rlhc.modules.shared import make_actor_value
 from rlhc.modules.specs import HasSpecs, action_spec, group_mlp, observation_size
 
 
@@ -30,21 +33,25 @@ def _per_agent_bound(bound: torch.Tensor, size: int, name: str) -> torch.Tensor:
     return rows[0].clone()
 
 
-def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticActor:
+def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticTensorDictSequential:
     """The stochastic policy shared by all agents of ``group``.
 
     Args:
         env: an env (or :class:`~rlhc.modules.specs.EnvSpecs`) holding
             ``(group, "observation")`` and ``(group, "action")`` specs.
         group: the agent group, e.g. ``"racket"``.
-        cfg: the MLP shape.
+        cfg: the MLP shape; with ``cfg.shared_trunk`` the policy operator of
+            :func:`~rlhc.modules.shared.make_actor_value` (its own trunk: to share one
+            with the worker critic, build both from one ``make_actor_value``).
 
     Returns:
-        A ``ProbabilisticActor`` reading ``(group, "observation")`` and writing
+        A ``ProbabilisticActor`` (with ``cfg.shared_trunk``: TorchRL's policy operator,
+        trunk + head) reading ``(group, "observation")`` and writing
         ``(group, "action")`` and ``(group, "action_log_prob")``.
 
     Raises:
         TypeError: the action spec is neither ``Bounded`` nor ``Categorical``.
+        ValueError: ``cfg.shared_trunk`` with an action spec that is not ``Categorical``.
 
     Examples:
         >>> import torch
@@ -60,6 +67,10 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticAc
         >>> actor(td)["racket", "action"].shape
         torch.Size([5, 4, 3])
     """
+    if cfg.shared_trunk:
+        policy = make_actor_value(env, group, cfg).get_policy_operator()
+        assert isinstance(policy, ProbabilisticTensorDictSequential)
+        return policy
     n_agents, n_inputs = observation_size(env, group)
     spec = action_spec(env, group)
     action_key = (group, ACTION)

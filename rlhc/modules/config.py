@@ -30,6 +30,10 @@ class NetworkConfig:
         activation: one of :data:`ACTIVATIONS` (``silu`` is ML-Agents 0.5's swish).
         initial_action_scale: continuous actors: the Normal scale (before the tanh
             squashing) for a zero scale output, i.e. at initialisation (``> 0``).
+        shared_trunk: discrete actors only: the actor and the worker critic share their
+            ``num_layers`` hidden layers (one trunk, a logits head and a value head, as
+            ML-Agents 0.5's discrete PPO), built together by
+            :func:`~rlhc.modules.make_actor_value`. The manager critic stays separate.
 
     Examples:
         >>> from rlhc.modules import NetworkConfig
@@ -41,6 +45,7 @@ class NetworkConfig:
     hidden_size: int = 128
     activation: str = "tanh"
     initial_action_scale: float = 1.0
+    shared_trunk: bool = False
 
     def __post_init__(self) -> None:
         if self.num_layers < 1:

@@ -23,6 +23,9 @@ ACTION_LOG_PROB = "action_log_prob"
 LOC = "loc"
 SCALE = "scale"
 LOGITS = "logits"
+#: The shared trunk's features ``[*B, n_g, hidden_size]`` (``model.shared_trunk``):
+#: written by the trunk, read by the policy head and the worker-value head.
+HIDDEN = "hidden"
 #: ``V_w(o_w)``: the worker critic's value ``[*B, n_g, 1]``.
 WORKER_VALUE = "worker_value"
 #: ``V_m(o_m)``: the manager critic's value ``[*B, n_g, 1]``.

@@ -1,0 +1,166 @@
+"""Arithmetic of the networks: FLOP of their ``Linear`` layers per world-decision.
+
+Counted, not timed: every ``nn.Linear`` of a built network costs
+``in_features x out_features`` multiply-adds (MAC) per agent it is applied to, and a
+MAC is 2 FLOP. Activations, biases, the distributions and the optimiser are left out
+(a few percent at the sizes of Table 3). Networks are built with
+:func:`rlhc.builders.make_agents`, exactly as the trainer builds them, so a
+shared trunk (``model.shared_trunk``) is counted in both the actor and the worker
+critic: each of TorchRL's two operators runs it.
+
+Not imported by :mod:`rlhc.modules` (it reads a whole training config); the benchmarks
+import it from here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from torch import nn
+from torchrl.envs import EnvBase
+
+from rlhc.builders import make_agents
+from rlhc.config import TrainConfig
+from rlhc.envs import make_env
+from rlhc.modules.specs import observation_size
+
+#: FLOP per multiply-add.
+FLOP_PER_MAC = 2
+#: A forward and a backward pass cost about this many forward passes (the backward
+#: computes the gradients of both the inputs and the weights: two matmuls per layer).
+FORWARD_BACKWARD = 3
+
+
+def linear_macs(module: nn.Module) -> int:
+    """Multiply-adds of one input row through every ``nn.Linear`` of ``module``.
+
+    Each layer counts once, however often it appears in the module tree (a shared
+    trunk inside a sequence counts once per network that holds it).
+
+    Args:
+        module: a network, e.g. an actor or a critic.
+
+    Returns:
+        ``sum(in_features * out_features)`` over its distinct ``nn.Linear`` layers.
+
+    Examples:
+        >>> from torch import nn
+        >>> linear_macs(nn.Sequential(nn.Linear(10, 4), nn.Tanh(), nn.Linear(4, 2)))
+        48
+    """
+    return sum(
+        layer.in_features * layer.out_features
+        for layer in module.modules()
+        if isinstance(layer, nn.Linear)
+    )
+
+
+@dataclass(frozen=True)
+class GroupFlops:
+    """Forward FLOP of one group's networks per world-decision (all its agents).
+
+    Attributes:
+        agents: agents of the group in one world (each network runs once per agent).
+        actor: the policy.
+        worker_critic: ``V_w`` (with a shared trunk: the trunk and the value head).
+        manager_critic: ``V_m``.
+    """
+
+    agents: int
+    actor: int
+    worker_critic: int
+    manager_critic: int
+
+    @property
+    def critics(self) -> int:
+        """Both critics."""
+        return self.worker_critic + self.manager_critic
+
+
+@dataclass(frozen=True)
+class TrainingFlops:
+    """FLOP per world-decision of collecting it and of training on it.
+
+    Attributes:
+        collection: every group's actor, forward (the env's own cost excluded).
+        update: the value estimator (both critics, forward, on the observation and on
+            the next one) plus ``epochs`` passes of the loss (actor and both critics,
+            forward and backward, :data:`FORWARD_BACKWARD` forward passes each).
+    """
+
+    collection: int
+    update: int
+
+
+def network_flops(cfg: TrainConfig, env: EnvBase | None = None) -> dict[str, GroupFlops]:
+    """Forward FLOP per world-decision of each group's actor and critics under ``cfg``.
+
+    Args:
+        cfg: a training config (its ``model`` section shapes the networks).
+        env: the env whose specs size the networks; ``None`` builds a one-world
+            ``cfg.env.name`` env with the config's game options.
+
+    Returns:
+        ``group -> GroupFlops``.
+
+    Raises:
+        rlhc.builders.ConfigError: ``model.shared_trunk=true`` on continuous actions.
+
+    Examples:
+        >>> from omegaconf import OmegaConf
+        >>> from rlhc.config import TrainConfig
+        >>> from rlhc.envs.config import SoccerEnvConfig
+        >>> cfg = OmegaConf.to_object(OmegaConf.structured(TrainConfig(env=SoccerEnvConfig())))
+        >>> sorted(network_flops(cfg))
+        ['goalie', 'striker']
+    """
+    if env is None:
+        env = make_env(cfg.env.name, num_envs=1, seed=0, **cfg.env.game_options())
+    _, losses = make_agents(cfg, env)
+    flops = {}
+    for group, loss in losses.items():
+        agents, _ = observation_size(env, group)
+        estimator = loss.value_estimator
+        networks = {
+            "actor": loss.actor_network,
+            "worker_critic": estimator.worker_value_network,
+            "manager_critic": estimator.manager_value_network,
+        }
+        flops[group] = GroupFlops(
+            agents=agents,
+            **{
+                name: FLOP_PER_MAC * agents * linear_macs(network)
+                for name, network in networks.items()
+            },
+        )
+    return flops
+
+
+def training_flops(cfg: TrainConfig, env: EnvBase | None = None) -> TrainingFlops:
+    """FLOP per world-decision of collection and of an update under ``cfg``.
+
+    Every world-decision of a batch is counted in every one of the ``algo.epochs``
+    (ML-Agents 0.5 leaves out a shuffled remainder, under one minibatch, per epoch).
+
+    Args:
+        cfg: a training config.
+        env: as in :func:`network_flops`.
+
+    Returns:
+        A :class:`TrainingFlops`.
+
+    Examples:
+        >>> from omegaconf import OmegaConf
+        >>> from rlhc.config import TrainConfig
+        >>> from rlhc.envs.config import SoccerEnvConfig
+        >>> cfg = OmegaConf.to_object(OmegaConf.structured(TrainConfig(env=SoccerEnvConfig())))
+        >>> cost = training_flops(cfg)
+        >>> cost.update > cost.collection > 0
+        True
+    """
+    groups = network_flops(cfg, env).values()
+    actors = sum(group.actor for group in groups)
+    critics = sum(group.critics for group in groups)
+    estimator = 2 * critics  # V(o_t) and V(o_{t+1}), no gradient
+    loss = cfg.algo.epochs * FORWARD_BACKWARD * (actors + critics)
+    return TrainingFlops(collection=actors, update=estimator + loss)
