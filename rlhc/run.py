@@ -17,6 +17,11 @@ How it ends, and its exit code:
 
 ``HYDRA_FULL_ERROR=1`` shows the traceback of a user error instead. Any other error is
 a bug and keeps its traceback (exit 1).
+
+Under ``torchrun --nproc_per_node=N`` every process runs this entry point
+(:mod:`rlhc.distributed`): rank 0 owns the run directory and all output; the other
+ranks write nothing (Hydra's files off, their log lines on stdout) and use rank 0's
+directory.
 """
 
 from __future__ import annotations
@@ -41,6 +46,7 @@ from omegaconf.errors import OmegaConfBaseException
 from rlhc.builders import ConfigError, Layout, validate
 from rlhc.checkpoint import ResumeError, load_checkpoint, run_dir_of
 from rlhc.config import TrainConfig, register_configs
+from rlhc.distributed import broadcast_object, check, launched_rank, launched_size, setup, shutdown
 from rlhc.interrupt import TrainingInterrupted
 from rlhc.loggers import validate_logger
 from rlhc.trainer import Trainer, check_resumable
@@ -51,6 +57,8 @@ PROGRAM = "rlhc.run"
 CONFIG_DIR = str(Path(__file__).resolve().parents[1] / "conf")
 #: Exit code of a user error (as argparse's).
 USAGE_ERROR = 2
+#: ``hydra.output_subdir`` that writes no ``.hydra/`` (Hydra's null).
+NO_OUTPUT = "null"
 #: Errors a user fixes by changing the command line, reported in one line.
 USER_ERRORS = (ConfigError, ResumeError, HydraException, OmegaConfBaseException)
 
@@ -97,7 +105,9 @@ def preflight(cfg: TrainConfig) -> dict[str, Any] | None:
             settings a resume cannot change.
     """
     validate(cfg)
-    Layout.from_config(cfg)
+    size = launched_size()
+    check(cfg.parallel, size, cfg.device, cfg.league.active)
+    Layout.from_config(cfg, size if cfg.parallel == "data" else 1)
     validate_logger(cfg.logger)
     if not cfg.resume:
         return None
@@ -160,15 +170,28 @@ def main(cfg: DictConfig) -> float:
     if message is not None:
         log.info(message)
         return float("nan")
+    processes = setup(train_cfg.parallel, train_cfg.device, train_cfg.league.active)
     try:
-        metrics = Trainer(train_cfg, run_dir).train()
+        if processes.active:
+            # Rank 0's directory: the others' own (named by their clock) stays empty.
+            main_dir = Path(broadcast_object(str(run_dir)))
+            if main_dir != run_dir:
+                remove_if_unused(run_dir)
+                remove_empty_parents(run_dir)
+            run_dir = main_dir
+        metrics = Trainer(train_cfg, run_dir, processes=processes).train()
     except TrainingInterrupted as stop:
-        log.warning(
-            f"{stop.signal_name}: stopped at {stop.frames:,} frames of {train_cfg.algo.max_steps:,}; "
-            f"checkpoint {shown(stop.checkpoint)}; resume with: {resume_command(run_dir)}"
-        )
+        if processes.main:
+            log.warning(
+                f"{stop.signal_name}: stopped at {stop.frames:,} frames of "
+                f"{train_cfg.algo.max_steps:,}; checkpoint {shown(stop.checkpoint)}; resume "
+                f"with: {resume_command(run_dir)}"
+            )
         sys.exit(stop.exit_code)
-    log.info(f"results in {shown(run_dir)}")
+    finally:
+        shutdown()
+    if processes.main:
+        log.info(f"results in {shown(run_dir)}")
     rewards = [v for k, v in metrics.items() if k.endswith("/cumulative_reward")]
     return sum(rewards) / len(rewards) if rewards else float("nan")
 
@@ -176,6 +199,9 @@ def main(cfg: DictConfig) -> float:
 def cli() -> None:
     """``python -m rlhc.run``: :func:`main`, with user errors reported in one line (exit 2)."""
     full_error = os.environ.get("HYDRA_FULL_ERROR") == "1"
+    if launched_rank() > 0:
+        # torchrun's other processes: rank 0 alone writes the run directory.
+        sys.argv += [f"hydra.output_subdir={NO_OUTPUT}", "hydra/job_logging=stdout"]
     # Hydra's documented switch to let exceptions through unprinted: reported below.
     os.environ["HYDRA_FULL_ERROR"] = "1"
     try:
@@ -194,7 +220,9 @@ def cli() -> None:
                 remove_empty_parents(sweep)
         if full_error:
             raise
-        print(f"{PROGRAM}: error: {one_line(error)}", file=sys.stderr)
+        rank = launched_rank()
+        where = f" (rank {rank})" if rank else ""
+        print(f"{PROGRAM}{where}: error: {one_line(error)}", file=sys.stderr)
         sys.exit(USAGE_ERROR)
 
 
@@ -250,8 +278,11 @@ def resume_command(run_dir: Path) -> str:
     overrides = [
         o for o in HydraConfig.get().overrides.task if o.lstrip("+~").split("=")[0] != "resume"
     ]
-    python = shown(Path(sys.executable))
-    return shlex.join([python, "-m", PROGRAM, *overrides, f"resume={shown(run_dir)}"])
+    launcher = [shown(Path(sys.executable))]
+    size = launched_size()
+    if size > 1:
+        launcher = ["torchrun", "--standalone", f"--nproc_per_node={size}"]
+    return shlex.join([*launcher, "-m", PROGRAM, *overrides, f"resume={shown(run_dir)}"])
 
 
 def shown(path: Path) -> str:

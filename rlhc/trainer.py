@@ -8,6 +8,10 @@ game share each group's policy (symmetric self-play).
 Units are ML-Agents 0.5's, the trainer the paper ran (see :class:`~rlhc.config.PPOConfig`
 and :class:`~rlhc.builders.Layout`): the budget, summary and checkpoint periods count
 world-decisions ("frames"), buffer and minibatch count agent-experiences per group.
+
+Under ``torchrun`` the same loop runs on every process (:mod:`rlhc.distributed`):
+data-parallel, each on its share of the worlds and of every minibatch, or as a
+pipeline, rank 0 updating while rank 1 collects.
 """
 
 from __future__ import annotations
@@ -17,10 +21,11 @@ import copy
 import logging
 import math
 import random
+import signal
 import sys
 import time
 from collections import defaultdict
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +58,20 @@ from rlhc.checkpoint import (
     set_rng_states,
 )
 from rlhc.config import PPOConfig, TrainConfig
+from rlhc.distributed import (
+    Processes,
+    WeightChannel,
+    all_reduce_gradients,
+    all_reduce_sum,
+    any_process,
+    average_floating_state,
+    broadcast_object,
+    broadcast_parameters,
+    gather,
+    receive_batch,
+    remote_batches,
+    send_batch,
+)
 from rlhc.envs import make_env
 from rlhc.envs.base import BatchedGame
 from rlhc.interrupt import StopSignals, TrainingInterrupted
@@ -123,24 +142,43 @@ def learner_weight(data: TensorDictBase, group: str) -> torch.Tensor:
     return learner.reshape(*learner.shape[: data.ndim + 1]).float()
 
 
-def weighted_mean(value: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
-    """The mean of ``value`` (a per-sample ``[B, n_g]`` term, or a scalar) under ``weight``."""
+def weighted_mean(
+    value: torch.Tensor, weight: torch.Tensor, total: torch.Tensor | None = None
+) -> torch.Tensor:
+    """The mean of ``value`` (a per-sample ``[B, n_g]`` term, or a scalar) under ``weight``.
+
+    ``total`` replaces ``weight.sum()`` as the denominator: the weight of the whole
+    minibatch when this process holds only its share (data-parallel).
+    """
     if value.dim() == 0:
         return value
-    return (value.reshape(weight.shape) * weight).sum() / weight.sum().clamp_min(1.0)
+    denominator = weight.sum() if total is None else total
+    return (value.reshape(weight.shape) * weight).sum() / denominator.clamp_min(1.0)
 
 
-def standardise_advantage(data: TensorDictBase, group: str, weight: torch.Tensor) -> None:
+def _identity(tensor: torch.Tensor) -> torch.Tensor:
+    return tensor
+
+
+def standardise_advantage(
+    data: TensorDictBase,
+    group: str,
+    weight: torch.Tensor,
+    reduce: Callable[[torch.Tensor], torch.Tensor] = _identity,
+) -> None:
     """Standardise ``(group, "advantage")`` of a minibatch in place, per agent slot.
 
     Over the experiences of weight 1 only (all of them without a league), as TorchRL's
     MAPPO does per slot; the losses are built with their own normalisation off.
+    ``reduce`` sums a partial statistic over the processes that hold the rest of the
+    minibatch (data-parallel: :func:`~rlhc.distributed.all_reduce_sum`).
     """
     advantage = data[group, "advantage"]
     shaped = advantage.reshape(weight.shape)
-    count = weight.sum(dim=0).clamp_min(1.0)
-    mean = (shaped * weight).sum(dim=0) / count
-    var = (((shaped - mean) ** 2) * weight).sum(dim=0) / count
+    sums = reduce(torch.stack([weight.sum(dim=0), (shaped * weight).sum(dim=0)]))
+    count = sums[0].clamp_min(1.0)
+    mean = sums[1] / count
+    var = reduce((((shaped - mean) ** 2) * weight).sum(dim=0)) / count
     standard = (shaped - mean) / (var.sqrt() + 1e-8)
     data.set((group, "advantage"), standard.reshape(advantage.shape))
 
@@ -199,6 +237,8 @@ class Trainer:
             env (e.g. TorchRL's ``PettingZooWrapper`` route, for benchmarks) must follow
             the same TensorDict contract, with episode returns and observation norm from
             :func:`~rlhc.builders.with_training_transforms`.
+        processes: this process's place in a ``torchrun`` run
+            (:func:`rlhc.distributed.setup`); ``None``: one process.
 
     Examples:
         >>> from hydra import compose, initialize_config_dir  # doctest: +SKIP
@@ -206,20 +246,31 @@ class Trainer:
         >>> trainer.train()  # doctest: +SKIP
     """
 
-    def __init__(self, cfg: TrainConfig, run_dir: Path, env: TransformedEnv | None = None) -> None:
+    def __init__(
+        self,
+        cfg: TrainConfig,
+        run_dir: Path,
+        env: TransformedEnv | None = None,
+        processes: Processes | None = None,
+    ) -> None:
         validate(cfg)
         self.cfg = cfg
         self.run_dir = run_dir
-        self.layout = Layout.from_config(cfg)
+        self.processes = processes if processes is not None else Processes(mode=cfg.parallel)
+        self.layout = Layout.from_config(cfg, self.processes.shards)
         if cfg.threads > 0:
             torch.set_num_threads(cfg.threads)
-        resume = load_checkpoint(cfg.resume) if cfg.resume else None
-        if resume is not None:
+        resume = None
+        if cfg.resume and self.processes.main:
+            resume = load_checkpoint(cfg.resume)
             check_resumable(cfg, resume)
+        if self.processes.active and cfg.resume:
+            resume = broadcast_object(resume)
+        # The same seed everywhere: every process builds the same initial networks.
         seed_everything(cfg.seed)
 
         self.env = (
-            env if env is not None else make_training_env(cfg, self.layout.num_envs, cfg.seed)
+            env if env is not None else make_training_env(cfg, self._local_worlds(), self._seed())
         )
         self.groups = group_names(self.env)
         self.actors, self.losses = make_agents(cfg, self.env)
@@ -232,7 +283,7 @@ class Trainer:
         self.league: League | None = None
         self.collection_policy: TensorDictModuleBase = self.policy
         if cfg.league.active:
-            self.league = League(cfg.league, self.layout.num_envs, cfg.seed)
+            self.league = League(cfg.league, self._local_worlds(), self._seed())
             net = network_config(cfg)
             self.collection_policy = LeaguePolicy(
                 self.policy, self.league, self.env, lambda g: make_actor(self.env, g, net)
@@ -242,17 +293,27 @@ class Trainer:
         self.optimizer = torch.optim.Adam(self.parameters, lr=cfg.algo.lr, fused=True)
 
         self._eval_env: EnvBase | None = None
+        #: What the collecting process of a pipeline sends with each batch.
+        self._remote: dict[str, Any] = {}
         self.frames = 0
         self.iteration = 0
         self.wall_time = 0.0
         if resume is not None:
             self._restore(resume)
-        self.logger = MetricLogger(
-            cfg.logger,
-            run_dir,
-            run_name=run_dir.name,
-            config=config_container(cfg),
-            resume_step=self.frames if resume is not None else None,
+        if self.processes.active:
+            broadcast_parameters(self.parameters)
+            # Apart from here on: each process samples its own actions and minibatches.
+            seed_everything((self._seed() + self.frames) % 2**32)
+        self.logger = (
+            MetricLogger(
+                cfg.logger,
+                run_dir,
+                run_name=run_dir.name,
+                config=config_container(cfg),
+                resume_step=self.frames if resume is not None else None,
+            )
+            if self.processes.main
+            else None
         )
 
     # --- the loop -------------------------------------------------------------------
@@ -273,24 +334,20 @@ class Trainer:
         last_metrics: dict[str, float] = {}
         if remaining <= 0:
             return last_metrics
-        collector = Collector(
-            self.env,
-            self.collection_policy,
-            frames_per_batch=self.layout.frames_per_batch,
-            total_frames=math.ceil(remaining / self.layout.frames_per_batch)
-            * self.layout.frames_per_batch,
-            # The policy is stateless (no recurrent state to initialise).
-            auto_register_policy_transforms=False,
-        )
+        if not self.processes.learns:
+            self._serve_batches()
+            return last_metrics
+        main = self.processes.main
         progress = tqdm(
             total=cfg.algo.max_steps,
             initial=self.frames,
             unit="frames",
-            disable=not self._show_progress(),
+            disable=not (main and self._show_progress()),
             dynamic_ncols=True,
         )
         lines = ProgressLines(cfg.algo.max_steps, self.frames)
         stop = StopSignals()
+        stopping = False
         saved: tuple[int, Path] | None = None
         episodes: dict[str, list[torch.Tensor]] = defaultdict(list)
         summary: dict[str, list[float]] = defaultdict(list)
@@ -299,50 +356,136 @@ class Trainer:
         with contextlib.ExitStack() as context:
             if not progress.disable:
                 context.enter_context(logging_redirect_tqdm())
-            context.callback(self.logger.close)
-            context.callback(collector.shutdown)
+            if self.logger is not None:
+                context.callback(self.logger.close)
+            batches = self._batches(remaining, context)
             context.callback(progress.close)
             context.enter_context(stop)
-            for batch in collector:
+            for batch in batches:
                 collect_time = time.perf_counter() - collect_start
                 self._collect_episode_stats(batch, episodes)
                 if self.league is not None:
                     self._record_league(batch)
+                if self.processes.data_parallel and cfg.algo.normalize_observations:
+                    self._merge_normaliser()
                 update_start = time.perf_counter()
                 self._set_schedules()
                 for name, value in self._update(batch).items():
                     summary[name].append(value)
                 update_time = time.perf_counter() - update_start
 
-                previous, self.frames = self.frames, self.frames + batch.numel()
+                frames = batch.numel() * self.processes.shards
+                previous, self.frames = self.frames, self.frames + frames
                 self.iteration += 1
                 if self.league is not None and self.iteration % cfg.league.snapshot_interval == 0:
                     self.league.add_snapshot(self.actors)
                 self.wall_time = time.perf_counter() - start
-                summary["env_steps_per_s"].append(batch.numel() / collect_time)
-                summary["train_frames_per_s"].append(batch.numel() / (collect_time + update_time))
+                summary["env_steps_per_s"].append(
+                    self._remote.get("env_steps_per_s", frames / collect_time)
+                )
+                summary["train_frames_per_s"].append(frames / (collect_time + update_time))
                 progress.update(self.frames - previous)
 
                 if self._crossed(previous, cfg.logger.summary_freq) or self._finished():
                     last_metrics = self._summarise(summary, episodes)
-                    if cfg.eval_freq and self._crossed(previous, cfg.eval_freq):
+                    if main and cfg.eval_freq and self._crossed(previous, cfg.eval_freq):
                         last_metrics.update(self.evaluate())
-                    self.logger.log(self.frames, last_metrics)
+                    if self.logger is not None:
+                        self.logger.log(self.frames, last_metrics)
                     progress.set_postfix(self._postfix(last_metrics))
                     summary.clear()
                     episodes.clear()
                 if self._crossed(previous, cfg.checkpoint_freq) or self._finished():
                     saved = (self.frames, self.save())
                 line = lines.update(self.frames, collect_time, last_metrics)
-                if line is not None:
+                if main and line is not None:
                     log.info(line)
-                if self._finished() or stop.received is not None:
+                stopping = stop.received is not None
+                if self.processes.data_parallel:
+                    stopping = any_process(stopping)
+                if self.processes.pipeline:
+                    self._publish_weights(go_on=not (self._finished() or stopping))
+                if self._finished() or stopping:
                     break
                 collect_start = time.perf_counter()
-        if stop.received is not None and not self._finished():
+        if stopping and not self._finished():
+            # Another process's signal stops this one too (data-parallel).
+            signum = stop.received if stop.received is not None else signal.SIGTERM
             checkpoint = saved[1] if saved and saved[0] == self.frames else self.save()
-            raise TrainingInterrupted(stop.received, self.frames, checkpoint)
+            raise TrainingInterrupted(signum, self.frames, checkpoint)
         return last_metrics
+
+    def _batches(self, remaining: int, context: contextlib.ExitStack) -> Iterator[TensorDictBase]:
+        """The batches to train on: from this process's worlds, or from the collector."""
+        if self.processes.pipeline:
+            for batch, extras in remote_batches():
+                self._receive_extras(extras)
+                yield batch
+            return
+        local = self.layout.frames_per_batch // self.processes.shards
+        collector = Collector(
+            self.env,
+            self.collection_policy,
+            frames_per_batch=local,
+            total_frames=math.ceil(remaining / self.layout.frames_per_batch) * local,
+            # The policy is stateless (no recurrent state to initialise).
+            auto_register_policy_transforms=False,
+        )
+        context.callback(collector.shutdown)
+        yield from collector
+
+    # --- the pipeline ---------------------------------------------------------------
+    def _serve_batches(self) -> None:
+        """The collecting process of a pipeline: collect, send, load the new weights.
+
+        Batch ``k + 1`` is collected while the learner trains on batch ``k``, with the
+        weights it had before that update (see :mod:`rlhc.distributed`). Stop signals
+        are left to the learner, which says when to stop.
+        """
+        channel = WeightChannel(self._actor_parameters())
+        collector = Collector(
+            self.env,
+            self.collection_policy,
+            frames_per_batch=self.layout.frames_per_batch,
+            total_frames=-1,
+            auto_register_policy_transforms=False,
+        )
+        context = contextlib.ExitStack()
+        context.callback(collector.shutdown)
+        with context, StopSignals():
+            start = time.perf_counter()
+            for index, batch in enumerate(collector):
+                extras = {
+                    "env_steps_per_s": batch.numel() / (time.perf_counter() - start),
+                    "env_transform": self.env.transform.state_dict(),
+                    "game_rng": self._game.rng.bit_generator.state if self._game else None,
+                }
+                send_batch(batch, extras)
+                if index >= 1 and not channel.receive():
+                    break
+                start = time.perf_counter()
+
+    def _receive_extras(self, extras: dict[str, Any]) -> None:
+        """Learner: keep the collector's normaliser statistics and game RNG (checkpoints)."""
+        self._remote = extras
+        self.env.transform.load_state_dict(extras["env_transform"])
+
+    def _publish_weights(self, go_on: bool) -> None:
+        """Learner: send the new weights; when stopping, take the batch still in flight."""
+        if not hasattr(self, "_channel"):
+            self._channel = WeightChannel(self._actor_parameters())
+        self._channel.send(go_on)
+        if not go_on:
+            receive_batch()  # collected with the last weights; nobody trains on it
+            self._channel.wait()
+
+    def _actor_parameters(self) -> list[torch.nn.Parameter]:
+        return [p for actor in self.actors.values() for p in actor.parameters()]
+
+    def _merge_normaliser(self) -> None:
+        """Data-parallel: average the normaliser statistics over the processes."""
+        state = self.env.transform.state_dict()
+        self.env.transform.load_state_dict(average_floating_state(state))
 
     def _update(self, batch: TensorDictBase) -> dict[str, float]:
         """Estimate advantages per group, then ``epochs`` passes of minibatch PPO."""
@@ -356,17 +499,32 @@ class Trainer:
                 for key in ("state_value", "worker_value", "manager_value", "manager_selected"):
                     stats[f"{group}/{key}"].append(batch[group, key].float().mean().item())
         flat = batch.reshape(-1)
-        used = layout.minibatches * layout.minibatch_frames
+        # Data-parallel: this process's share of every minibatch, from its own worlds.
+        share = layout.minibatch_frames // self.processes.shards
         for _ in range(algo.epochs):
             # As ML-Agents 0.5: whole minibatches only, the shuffled remainder left out.
-            for index in torch.randperm(flat.numel())[:used].split(layout.minibatch_frames):
-                total = self.minibatch_loss(flat[index], stats)
-                self.optimizer.zero_grad(set_to_none=True)
-                total.backward()
+            order = torch.randperm(flat.numel())[: layout.minibatches * share]
+            for index in order.split(share):
+                self.backward(flat[index], stats)
                 grad_norm = torch.nn.utils.clip_grad_norm_(self.parameters, algo.max_grad_norm)
                 stats["grad_norm"].append(grad_norm.item())
                 self.optimizer.step()
         return {name: float(np.mean(values)) for name, values in stats.items()}
+
+    def backward(
+        self, minibatch: TensorDictBase, stats: dict[str, list[float]] | None = None
+    ) -> None:
+        """Set every parameter's gradient to that of :meth:`minibatch_loss`.
+
+        Data-parallel, ``minibatch`` is this process's share and the gradients are
+        summed over the processes: every process then holds the gradient of the whole
+        minibatch, the one a single process computes.
+        """
+        total = self.minibatch_loss(minibatch, stats)
+        self.optimizer.zero_grad(set_to_none=True)
+        total.backward()
+        if self.processes.data_parallel:
+            all_reduce_gradients(self.parameters)
 
     def minibatch_loss(
         self, minibatch: TensorDictBase, stats: dict[str, list[float]] | None = None
@@ -374,15 +532,20 @@ class Trainer:
         """The summed PPO loss of every group on a minibatch (advantages already in it).
 
         Every term is averaged under :func:`learner_weight`: an experience that an
-        opponent chose (a league world) adds nothing. Diagnostics go to ``stats``.
+        opponent chose (a league world) adds nothing. Diagnostics go to ``stats`` (this
+        process's share only, data-parallel; :meth:`_summarise` averages the processes).
         """
+        shared = self.processes.data_parallel
+        reduce = all_reduce_sum if shared else _identity
         total = torch.zeros(())
         for group, loss in self.losses.items():
             weight = learner_weight(minibatch, group)
+            # The whole minibatch's weight: each term is a mean over all its processes.
+            weights = reduce(weight.sum()) if shared else None
             if self.cfg.algo.normalize_advantage:
-                standardise_advantage(minibatch, group, weight)
+                standardise_advantage(minibatch, group, weight, reduce)
             out = loss(minibatch)
-            total = total + sum(weighted_mean(out[term], weight) for term in LOSS_KEYS)
+            total = total + sum(weighted_mean(out[term], weight, weights) for term in LOSS_KEYS)
             if stats is not None:
                 for key in LOSS_DIAGNOSTICS:
                     if key in out:
@@ -394,12 +557,17 @@ class Trainer:
         """Feed the results of the episodes that ended against league opponents to Elo."""
         assert self.league is not None
         done = batch["next", "done"].squeeze(-1)
-        if not done.any():
+        if not done.any() and not self.processes.data_parallel:
             return
         opponent = batch[OPPONENT].squeeze(-1)[done].numpy()
         learner_team = batch[LEARNER_TEAM].squeeze(-1)[done].numpy()
         scoring = batch["next", "scoring_team"].squeeze(-1)[done].numpy()
         scores = np.where(scoring < 0, 0.5, (scoring == learner_team).astype(float))
+        if self.processes.data_parallel:
+            # Every process records every result: the ratings stay the same everywhere.
+            results = gather((opponent, scores))
+            opponent = np.concatenate([o for o, _ in results])
+            scores = np.concatenate([s for _, s in results])
         self.league.record(opponent, scores)
 
     # --- metrics --------------------------------------------------------------------
@@ -427,6 +595,17 @@ class Trainer:
     def _summarise(
         self, summary: dict[str, list[float]], episodes: dict[str, list[torch.Tensor]]
     ) -> dict[str, float]:
+        if self.processes.data_parallel:
+            # Every process's diagnostics and episodes (one gather per summary).
+            merged_summary: dict[str, list[float]] = defaultdict(list)
+            merged_episodes: dict[str, list[torch.Tensor]] = defaultdict(list)
+            for part_summary, part_episodes in gather((dict(summary), dict(episodes))):
+                for name, values in part_summary.items():
+                    merged_summary[name].extend(values)
+                for name, chunks in part_episodes.items():
+                    merged_episodes[name].extend(chunks)
+            # (Rates need no merging: every process counts the frames of all of them.)
+            summary, episodes = merged_summary, merged_episodes
         metrics = {name: float(np.mean(values)) for name, values in summary.items()}
         count = float(sum(len(c) for c in episodes.get("episode_length", [])))
         for name, chunks in episodes.items():
@@ -496,14 +675,16 @@ class Trainer:
             "losses": {g: loss.state_dict() for g, loss in self.losses.items()},
             "optimizer": self.optimizer.state_dict(),
             "env_transform": self.env.transform.state_dict(),
-            "game_rng": self._game.rng.bit_generator.state if self._game else None,
+            "game_rng": self._game_rng(),
             "league": self.league.state_dict() if self.league is not None else None,
             "rng": rng_states(),
         }
 
     def save(self) -> Path:
+        """Write a checkpoint (rank 0 only: the others hold the same state); its path."""
         path = self.run_dir / CHECKPOINT_DIR / f"step_{self.frames:09d}.pt"
-        save_checkpoint(path, self.state())
+        if self.processes.main:
+            save_checkpoint(path, self.state())
         return path
 
     def _restore(self, state: dict[str, Any]) -> None:
@@ -511,7 +692,10 @@ class Trainer:
             loss.load_state_dict(state["losses"][group])
         self.optimizer.load_state_dict(state["optimizer"])
         self.env.transform.load_state_dict(state["env_transform"])
-        if self._game is not None and state["game_rng"] is not None:
+        # The stored generator is the one rank 0 collected with (the collector's, in a
+        # pipeline); other data-parallel processes keep their own seeds.
+        owner = self.processes.pipeline or self.processes.main
+        if self._game is not None and state["game_rng"] is not None and owner:
             self._game.rng.bit_generator.state = state["game_rng"]
         if self.league is not None and state.get("league") is not None:
             self.league.load_state_dict(state["league"])
@@ -521,6 +705,27 @@ class Trainer:
         self.wall_time = float(state["wall_time"])
 
     # --- helpers --------------------------------------------------------------------
+    def _local_worlds(self) -> int:
+        """Worlds this process steps: its share, all of them, or one (pipeline learner,
+        which needs an env only for its specs and the normaliser statistics)."""
+        if not self.processes.collects:
+            return 1
+        return self.layout.num_envs // self.processes.shards
+
+    def _seed(self) -> int:
+        """``cfg.seed`` for rank 0 (one process is unchanged), a derived seed elsewhere."""
+        if self.processes.rank == 0:
+            return self.cfg.seed
+        return int(
+            np.random.SeedSequence([self.cfg.seed, self.processes.rank]).generate_state(1)[0]
+        )
+
+    def _game_rng(self) -> Mapping[str, Any] | None:
+        """The collecting game's generator state (the collector's, in a pipeline)."""
+        if self.processes.pipeline:
+            return self._remote.get("game_rng")
+        return self._game.rng.bit_generator.state if self._game else None
+
     @property
     def _game(self) -> BatchedGame | None:
         """The numpy game behind the env (``None`` for an env of another kind)."""

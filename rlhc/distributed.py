@@ -1,0 +1,300 @@
+"""One run on several processes: ``torchrun --nproc_per_node=N -m rlhc.run …``.
+
+``torchrun`` starts ``N`` copies of ``rlhc.run`` and tells each its ``RANK`` and
+``WORLD_SIZE``; :func:`setup` joins them with ``torch.distributed`` (gloo on CPU, NCCL
+on CUDA). Plain ``python -m rlhc.run`` is one process and never touches any of this.
+Both ways of sharing a run keep Table 3's semantics: the same world-decisions per
+update, minibatches, epochs and budget (``algo.max_steps`` counts every process's
+worlds).
+
+| ``parallel=`` | who collects | who updates | per update | behaviour policy |
+|---|---|---|---|---|
+| ``data`` | every rank, ``num_envs / N`` worlds | every rank, its ``1/N`` of each minibatch | an all-reduce of every gradient per minibatch, and of the advantage and weight statistics | the current one, as one process |
+| ``pipeline`` (``N = 2``) | rank 1, every world | rank 0 | the batch goes 1 → 0, the actors' weights 0 → 1 | one update older (below) |
+
+``data`` computes exactly the update one process computes on the same minibatch
+(``tests/test_distributed.py`` checks the gradient to 1e-6): advantages are
+standardised with the statistics of the whole minibatch and every loss term is a mean
+over the whole minibatch's weights, so the summed gradients are the single-process
+gradient. The observation normaliser's statistics are averaged over the ranks after
+every collection (each rank saw ``1/N`` of the worlds), and episode metrics, league
+results and the stop signal are merged, so every rank holds the same state. Rank 0
+alone logs, evaluates and writes checkpoints; a checkpoint resumes with any ``N``.
+
+``pipeline`` overlaps collection with the update: while rank 0 trains on batch ``k``,
+rank 1 collects batch ``k + 1``. Batch ``k + 1`` is therefore collected with the weights
+rank 0 had *before* its update on batch ``k``, and trained on by the weights *after* it:
+the behaviour policy is exactly one update behind (batch 0 and batch 1 are both
+collected with the initial weights). PPO's ratio stays the right importance weight,
+because it divides by the behaviour policy's own log-probabilities, stored with each
+action; the clip range is then measured from that policy. The value targets use the
+learner's current critics, as in one process.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import torch
+import torch.distributed as dist
+from tensordict import TensorDictBase
+
+from rlhc.builders import ConfigError
+
+MODES = ("data", "pipeline")
+#: Rank 0 of a pipeline updates; rank 1 collects.
+LEARNER_RANK = 0
+COLLECTOR_RANK = 1
+
+
+@dataclass(frozen=True)
+class Processes:
+    """Which process this is, among how many, sharing the run how.
+
+    Attributes:
+        rank: this process's rank (0 logs and checkpoints).
+        size: processes in the run (1: plain ``python -m rlhc.run``).
+        mode: ``data`` or ``pipeline`` (see the module docstring).
+
+    Examples:
+        >>> Processes().collects, Processes().learns, Processes().shards
+        (True, True, 1)
+        >>> learner = Processes(rank=0, size=2, mode="pipeline")
+        >>> learner.collects, learner.learns, learner.shards
+        (False, True, 1)
+    """
+
+    rank: int = 0
+    size: int = 1
+    mode: str = "data"
+
+    @property
+    def main(self) -> bool:
+        """Whether this process logs, evaluates and writes checkpoints."""
+        return self.rank == 0
+
+    @property
+    def active(self) -> bool:
+        """Whether there is more than one process."""
+        return self.size > 1
+
+    @property
+    def data_parallel(self) -> bool:
+        return self.active and self.mode == "data"
+
+    @property
+    def pipeline(self) -> bool:
+        return self.active and self.mode == "pipeline"
+
+    @property
+    def collects(self) -> bool:
+        """Whether this process steps worlds."""
+        return not self.pipeline or self.rank != LEARNER_RANK
+
+    @property
+    def learns(self) -> bool:
+        """Whether this process runs the PPO update."""
+        return not self.pipeline or self.rank == LEARNER_RANK
+
+    @property
+    def shards(self) -> int:
+        """Into how many shares the worlds and every minibatch are split."""
+        return self.size if self.data_parallel else 1
+
+
+def launched_size() -> int:
+    """``WORLD_SIZE`` as ``torchrun`` sets it (1 when started without it)."""
+    return int(os.environ.get("WORLD_SIZE", "1"))
+
+
+def launched_rank() -> int:
+    """``RANK`` as ``torchrun`` sets it (0 when started without it)."""
+    return int(os.environ.get("RANK", "0"))
+
+
+def backend(device: str) -> str:
+    """The collective backend for ``device``: NCCL for CUDA, gloo otherwise."""
+    return "nccl" if torch.device(device).type == "cuda" else "gloo"
+
+
+def check(mode: str, size: int, device: str, league_active: bool) -> None:
+    """Refuse, before anything is built, a way of sharing the run that cannot work.
+
+    Raises:
+        ConfigError: an unknown ``parallel``, a pipeline of other than 2 processes or
+            with a league, or no collective backend for ``device`` in this torch build.
+    """
+    if mode not in MODES:
+        raise ConfigError(f"parallel={mode!r}; allowed: {', '.join(MODES)}")
+    if size <= 1:
+        return
+    if mode == "pipeline" and size != 2:
+        raise ConfigError(
+            f"parallel=pipeline with {size} processes (torchrun --nproc_per_node); "
+            "allowed: exactly 2 (one learner, one collector), or parallel=data for any number"
+        )
+    if mode == "pipeline" and league_active:
+        raise ConfigError(
+            "parallel=pipeline with league.active (league=mixed): the league's opponents "
+            "live on the collecting process; allowed: league=self_play, or parallel=data"
+        )
+    name = backend(device)
+    available = {"gloo": dist.is_gloo_available, "nccl": dist.is_nccl_available}
+    if not dist.is_available() or not available[name]():
+        raise ConfigError(
+            f"device={device!r} with {size} processes needs torch.distributed's {name} "
+            "backend, which this torch build does not have; allowed: one process, or a "
+            f"torch build with {name}"
+        )
+
+
+def setup(mode: str, device: str, league_active: bool) -> Processes:
+    """Join the processes ``torchrun`` started (a no-op for one process).
+
+    Raises:
+        ConfigError: see :func:`check`.
+    """
+    size = launched_size()
+    check(mode, size, device, league_active)
+    if size <= 1:
+        return Processes(mode=mode)
+    if not dist.is_initialized():
+        dist.init_process_group(backend(device))
+    return Processes(rank=dist.get_rank(), size=dist.get_world_size(), mode=mode)
+
+
+def shutdown() -> None:
+    """Leave the process group (when one was joined)."""
+    if dist.is_available() and dist.is_initialized():
+        dist.destroy_process_group()
+
+
+# --- data-parallel collectives --------------------------------------------------------
+def all_reduce_sum(tensor: torch.Tensor) -> torch.Tensor:
+    """``tensor`` summed over the processes, in place (returned for chaining)."""
+    dist.all_reduce(tensor, op=dist.ReduceOp.SUM)
+    return tensor
+
+
+def all_reduce_gradients(parameters: Sequence[torch.nn.Parameter]) -> None:
+    """Sum every parameter's gradient over the processes with one all-reduce.
+
+    The gradients are flattened into one buffer (one collective per minibatch rather
+    than one per tensor); a parameter without a gradient contributes zeros and gets
+    the sum of the others.
+    """
+    grads = [p.grad if p.grad is not None else torch.zeros_like(p) for p in parameters]
+    flat = torch.cat([g.reshape(-1) for g in grads])
+    dist.all_reduce(flat, op=dist.ReduceOp.SUM)
+    for parameter, chunk in zip(parameters, flat.split([g.numel() for g in grads]), strict=True):
+        parameter.grad = chunk.view_as(parameter)
+
+
+def broadcast_parameters(parameters: Sequence[torch.Tensor], src: int = 0) -> None:
+    """Overwrite every process's ``parameters`` with those of rank ``src``."""
+    with torch.no_grad():
+        flat = torch.cat([p.detach().reshape(-1) for p in parameters])
+        dist.broadcast(flat, src=src)
+        for parameter, chunk in zip(
+            parameters, flat.split([p.numel() for p in parameters]), strict=True
+        ):
+            parameter.copy_(chunk.view_as(parameter))
+
+
+def average_floating_state(state: Mapping[str, Any]) -> dict[str, Any]:
+    """A copy of a (nested) state dict with every floating tensor averaged over processes.
+
+    Used for the observation normaliser (``VecNormV2``'s running mean and variance):
+    integer entries (counts, flags) are equal on every rank and kept.
+    """
+    merged: dict[str, Any] = {}
+    for key, value in state.items():
+        if isinstance(value, Mapping):
+            merged[key] = average_floating_state(value)
+        elif isinstance(value, torch.Tensor) and value.is_floating_point():
+            merged[key] = all_reduce_sum(value.clone()) / dist.get_world_size()
+        else:
+            merged[key] = value
+    return merged
+
+
+def gather(value: Any) -> list[Any]:
+    """``value`` of every process, in rank order (any picklable object)."""
+    values: list[Any] = [None] * dist.get_world_size()
+    dist.all_gather_object(values, value)
+    return values
+
+
+def any_process(flag: bool) -> bool:
+    """Whether ``flag`` is set on any process (e.g. a stop signal received by one)."""
+    tensor = torch.tensor([float(flag)])
+    dist.all_reduce(tensor, op=dist.ReduceOp.MAX)
+    return bool(tensor.item())
+
+
+def broadcast_object(value: Any, src: int = 0) -> Any:
+    """Rank ``src``'s ``value`` on every process."""
+    box = [value]
+    dist.broadcast_object_list(box, src=src)
+    return box[0]
+
+
+# --- the pipeline ---------------------------------------------------------------------
+def send_batch(batch: TensorDictBase, extra: Mapping[str, Any], dst: int = LEARNER_RANK) -> None:
+    """Send a collected batch and what the learner keeps with it (normaliser, RNG)."""
+    dist.send_object_list([batch, dict(extra)], dst=dst)
+
+
+def receive_batch(src: int = COLLECTOR_RANK) -> tuple[TensorDictBase, dict[str, Any]]:
+    """The next batch of :func:`send_batch` and its extras."""
+    box: list[Any] = [None, None]
+    dist.recv_object_list(box, src=src)
+    return box[0], box[1]
+
+
+class WeightChannel:
+    """The actors' weights, sent from the learner to the collector after each update.
+
+    One flat tensor of every actor parameter plus a last entry, 1 to go on collecting
+    or 0 to stop. The learner's send does not wait (``isend``): the collector is busy
+    sending the next batch, which the learner receives right after.
+    """
+
+    def __init__(self, parameters: Sequence[torch.Tensor]) -> None:
+        self.parameters = list(parameters)
+        self.sizes = [p.numel() for p in self.parameters]
+        self._pending: Any = None
+
+    def send(self, go_on: bool, dst: int = COLLECTOR_RANK) -> None:
+        """Learner: post the current weights and whether to continue."""
+        self.wait()
+        with torch.no_grad():
+            flat = torch.cat([p.detach().reshape(-1) for p in self.parameters])
+        self._buffer = torch.cat([flat, torch.tensor([float(go_on)])])
+        self._pending = dist.isend(self._buffer, dst=dst)
+
+    def wait(self) -> None:
+        """Learner: wait until the last weights left (before reusing their buffer)."""
+        if self._pending is not None:
+            self._pending.wait()
+            self._pending = None
+
+    def receive(self, src: int = LEARNER_RANK) -> bool:
+        """Collector: load the learner's weights into ``parameters``; whether to go on."""
+        buffer = torch.empty(sum(self.sizes) + 1)
+        dist.recv(buffer, src=src)
+        with torch.no_grad():
+            for parameter, chunk in zip(
+                self.parameters, buffer[:-1].split(self.sizes), strict=True
+            ):
+                parameter.copy_(chunk.view_as(parameter))
+        return bool(buffer[-1].item())
+
+
+def remote_batches() -> Iterator[tuple[TensorDictBase, dict[str, Any]]]:
+    """Learner: the collector's batches, as they arrive."""
+    while True:
+        yield receive_batch()

@@ -1,0 +1,81 @@
+"""Run by ``tests/test_distributed.py`` under ``torchrun --nproc_per_node=2``.
+
+Every rank holds the same minibatch (rank 0's, broadcast). Each computes the gradient a
+single process computes on the whole minibatch, then the data-parallel gradient from its
+half plus the all-reduce, then takes one optimiser step. Rank 0 writes, as JSON, the
+largest gradient difference on any rank and the largest parameter difference between
+the ranks after the step.
+
+Usage: ``torchrun --standalone --nproc_per_node=2 tests/distributed_check.py OUT [overrides…]``
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import torch
+import torch.distributed as dist
+from configs import load_smoke
+
+from rlhc.distributed import Processes, broadcast_object, gather, setup, shutdown
+from rlhc.trainer import Trainer, cut_trajectories
+
+
+def main(out: Path, overrides: list[str]) -> None:
+    cfg = load_smoke(*overrides, "logger.backends=[csv]")
+    processes = setup("data", "cpu", cfg.league.active)
+    rank, size = processes.rank, processes.size
+    with tempfile.TemporaryDirectory() as tmp:
+        trainer = Trainer(cfg, Path(tmp), processes=processes)
+        batch = None
+        if rank == 0:
+            with torch.no_grad():
+                batch = trainer.env.rollout(
+                    32, trainer.collection_policy, break_when_any_done=False
+                )
+        batch = broadcast_object(batch)
+        cut_trajectories(batch, trainer.groups, trainer.layout.time_horizon)
+        with torch.no_grad():
+            for loss in trainer.losses.values():
+                loss.value_estimator(batch)
+        minibatch = batch.reshape(-1)[: 16 * size]
+
+        trainer.processes = Processes()  # one process, the whole minibatch
+        trainer.backward(minibatch.clone())
+        single = [p.grad.clone() for p in trainer.parameters]
+
+        trainer.processes = processes  # this rank's half, then the all-reduce
+        share = minibatch.shape[0] // size
+        trainer.backward(minibatch[rank * share : (rank + 1) * share].clone())
+        shared = [p.grad.clone() for p in trainer.parameters]
+        gradient_error = max(
+            (a - b).abs().max().item() for a, b in zip(single, shared, strict=True)
+        )
+        gradient_scale = max(a.abs().max().item() for a in single)
+
+        trainer.optimizer.step()
+        flat = torch.cat([p.detach().reshape(-1) for p in trainer.parameters])
+        everyone = gather(flat)
+        parameter_error = max((everyone[0] - other).abs().max().item() for other in everyone)
+        errors = gather(gradient_error)
+    if rank == 0:
+        out.write_text(
+            json.dumps(
+                {
+                    "gradient_error": max(errors),
+                    "gradient_scale": gradient_scale,
+                    "parameter_error": parameter_error,
+                    "processes": size,
+                    "weights": minibatch.numel(),
+                }
+            )
+        )
+    dist.barrier()
+    shutdown()
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]), sys.argv[2:])
