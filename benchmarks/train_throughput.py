@@ -1,31 +1,38 @@
-"""Training throughput: frames per second of the whole loop, ours vs the TorchRL route.
+"""Training throughput at Table 3 on 1 and 2 processes, against the arithmetic ceiling.
 
-A frame is one step of one world; a training frame/s counts collection, the
-hierarchical value estimator and the PPO epochs (paper Table 3 settings, one torch
-thread). Measured in one run, per ``--env`` and ``--critic``:
+A frame is one world-decision. Each *setup* is a real training run, started as a user
+starts it (``python -m rlhc.run`` or ``torchrun --standalone --nproc_per_node=2 -m
+rlhc.run``, Table 3 untouched, one torch thread per process), timed from its own
+``metrics.csv``: one row per update, and the rate is the frames over the wall time
+between the first and the last row after ``--warmup`` updates (logging and the
+data-parallel metric merges included; checkpoints pushed past the end).
 
-* ``rlhc``: the project's own pipeline, built from the Hydra config exactly as
-  ``python -m rlhc.run`` builds it (``hydra.compose`` + :class:`rlhc.trainer.Trainer`),
-  the batched ``make_env`` game on the collection path;
-* ``wrapper``: the straightforward TorchRL route: the game's PettingZoo env
-  (``rlhc.envs.<game>.parallel_env()``) in ``torchrl.envs.PettingZooWrapper``, inside a
-  ``SerialEnv`` of the same number of worlds, adapted to the TensorDict contract with
-  TorchRL transforms (``RenameTransform`` for the manager observation that the wrapper
-  leaves in ``(group, "info")``, ``StepCounter`` for the root ``step_count``,
-  ``RewardSum``, and ``VecNormV2`` when the config normalises observations). Same
-  networks (``make_actor``, ``make_worker_critic``, ``make_manager_critic``), same loss
-  (``make_ppo_loss``), and the same ``Trainer.train`` loop (a subclass swaps the env).
+| setup | command |
+|---|---|
+| ``one`` | ``python -m rlhc.run`` |
+| ``data`` | ``torchrun --nproc_per_node=2 -m rlhc.run parallel=data`` |
+| ``pipeline`` | ``torchrun --nproc_per_node=2 -m rlhc.run parallel=pipeline`` |
+| ``trunk`` | ``python -m rlhc.run model.shared_trunk=true`` (discrete actions: soccer) |
+| ``trunk-pipeline`` | ``pipeline`` with ``model.shared_trunk=true`` (soccer) |
 
-Both routes report ``train_frames_per_s`` per iteration in ``metrics.csv`` (the
-trainer times collection + update, not logging or checkpoints); the first
-``--warmup`` iterations are dropped and the rest are combined as total frames over
-total time. ``--breakdown`` summarises a py-spy profile of this script instead.
+Setups run one after another, round-robin over ``--repeats``, and every ratio compares
+runs of the same round (the machine is shared: a ratio within one invocation is what
+this measures). The ceiling: fp32 GEMM GFLOP/s on one core, measured in the same
+invocation at the shapes of the configured minibatch, times the processes, divided by
+the FLOP per frame of the configured networks (:func:`rlhc.modules.flops.training_flops`:
+the actors to collect, the value estimator and ``epochs`` forward-backward passes of the
+loss to train).
+
+``--wrapper`` adds the older comparison with the straightforward TorchRL route (the
+game's PettingZoo env in ``PettingZooWrapper`` inside a ``SerialEnv``, same trainer, in
+this process); ``--breakdown`` summarises a py-spy profile instead.
 
 Examples:
-    python benchmarks/train_throughput.py --env soccer tennis --critic hierarchical ppo
-    python benchmarks/train_throughput.py --env soccer --iterations 20 --skip-wrapper
+    python benchmarks/train_throughput.py --env soccer tennis --repeats 2
+    python benchmarks/train_throughput.py --env soccer --setups one pipeline --iterations 8
+    python benchmarks/train_throughput.py --env soccer --setups one --wrapper
     py-spy record --format raw -o soccer.txt -- python benchmarks/train_throughput.py \\
-        --env soccer --critic hierarchical --iterations 40 --skip-wrapper
+        --env soccer --setups one --iterations 40
     python benchmarks/train_throughput.py --breakdown soccer.txt
 """
 
@@ -34,11 +41,13 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import math
 import multiprocessing
 import os
 import platform
 import re
+import statistics
+import subprocess
+import sys
 import tempfile
 import time
 import warnings
@@ -48,6 +57,17 @@ from typing import Any
 
 RESULTS = Path(__file__).parent / "results" / "train_throughput.json"
 CONF_DIR = Path(__file__).resolve().parents[1] / "conf"
+TORCHRUN = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2"]
+#: setup -> (processes, overrides)
+SETUPS: dict[str, tuple[int, list[str]]] = {
+    "one": (1, []),
+    "data": (2, ["parallel=data"]),
+    "pipeline": (2, ["parallel=pipeline"]),
+    "trunk": (1, ["model.shared_trunk=true"]),
+    "trunk-pipeline": (2, ["parallel=pipeline", "model.shared_trunk=true"]),
+}
+#: Setups that need discrete actions.
+DISCRETE_ONLY = ("trunk", "trunk-pipeline")
 
 
 def compose_config(env: str, critic: str, overrides: list[str]) -> Any:
@@ -74,6 +94,76 @@ def bench_overrides(iterations: int, frames_per_batch: int) -> list[str]:
         f"logger.summary_freq={frames_per_batch}",  # one metrics row per iteration
         "checkpoint_freq=1000000000",  # one checkpoint, at the end, outside the timing
     ]
+
+
+# --- processes -------------------------------------------------------------------------
+def run_setup(env: str, critic: str, setup: str, iterations: int, warmup: int) -> dict[str, Any]:
+    """Train ``warmup + iterations`` updates with ``setup``; frames/s after the warm-up."""
+    from rlhc.builders import Layout
+
+    processes, extra = SETUPS[setup]
+    layout = Layout.from_config(compose_config(env, critic, []))
+    overrides = [f"env={env}", f"critic={critic}", *extra,
+                 *bench_overrides(warmup + iterations, layout.frames_per_batch)]  # fmt: skip
+    launcher = TORCHRUN if processes > 1 else [sys.executable]
+    with tempfile.TemporaryDirectory(prefix=f"bench_{setup}_") as tmp:
+        command = [*launcher, "-m", "rlhc.run", *overrides, f"hydra.run.dir={tmp}/run"]
+        done = subprocess.run(command, capture_output=True, text=True, cwd=tmp)
+        if done.returncode != 0:
+            raise RuntimeError(f"{' '.join(command)} failed:\n{done.stderr[-3000:]}")
+        rows = read_metrics(Path(tmp) / "run")
+    if len(rows) != warmup + iterations:
+        raise RuntimeError(f"expected one metrics row per iteration, got {len(rows)}")
+    timed = rows[warmup - 1 :] if warmup > 0 else rows
+    frames = timed[-1]["frames"] - (timed[0]["frames"] if warmup > 0 else 0.0)
+    seconds = timed[-1]["wall_time"] - (timed[0]["wall_time"] if warmup > 0 else 0.0)
+    return {"env": env, "critic": critic, "setup": setup, "processes": processes,
+            "frames_per_s": frames / seconds, "frames": frames, "seconds": seconds,
+            "env_steps_per_s": statistics.mean(r["env_steps_per_s"] for r in rows[warmup:]),
+            "worlds": layout.num_envs, "frames_per_batch": layout.frames_per_batch}  # fmt: skip
+
+
+def read_metrics(run_dir: Path) -> list[dict[str, float]]:
+    with (run_dir / "metrics.csv").open() as file:
+        return [{k: float(v) for k, v in row.items() if v not in ("", None)} for row in csv.DictReader(file)]  # fmt: skip
+
+
+# --- the arithmetic ceiling ------------------------------------------------------------
+def gemm_gflops(rows: int, width: int, seconds: float = 1.0) -> float:
+    """fp32 GFLOP/s of ``[rows, width] @ [width, width]`` on one thread."""
+    import torch
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    a, b = torch.randn(rows, width), torch.randn(width, width)
+    for _ in range(20):
+        a @ b
+    count, start = 0, time.perf_counter()
+    while time.perf_counter() - start < seconds:
+        for _ in range(20):
+            a @ b
+        count += 20
+    elapsed = time.perf_counter() - start
+    torch.set_num_threads(threads)
+    return 2.0 * rows * width * width * count / elapsed / 1e9
+
+
+def ceiling(env: str, critic: str, overrides: list[str]) -> dict[str, Any]:
+    """FLOP per frame of the configured networks and the frames/s one core allows."""
+    from rlhc.builders import Layout
+    from rlhc.modules.flops import training_flops
+
+    cfg = compose_config(env, critic, overrides)
+    layout = Layout.from_config(cfg)
+    cost = training_flops(cfg)
+    # The minibatch's rows through a hidden layer: the GEMM an update is made of.
+    rows = layout.minibatch_frames * layout.agents_per_world
+    gflops = gemm_gflops(rows, cfg.model.hidden_size)
+    per_frame = cost.collection + cost.update
+    return {"flop_per_frame": per_frame, "collection_flop_per_frame": cost.collection,
+            "update_flop_per_frame": cost.update, "gemm_rows": rows,
+            "gemm_width": cfg.model.hidden_size, "gemm_gflops_one_core": gflops,
+            "ceiling_frames_per_s_one_core": gflops * 1e9 / per_frame}  # fmt: skip
 
 
 # --- the TorchRL wrapper route -----------------------------------------------------------
@@ -150,12 +240,7 @@ def wrapper_trainer(cfg: Any, run_dir: Path) -> Any:
     return WrapperTrainer(cfg, run_dir, env=env)
 
 
-# --- measuring ---------------------------------------------------------------------------
-def read_metrics(run_dir: Path) -> list[dict[str, float]]:
-    with (run_dir / "metrics.csv").open() as file:
-        return [{k: float(v) for k, v in row.items() if v not in ("", None)} for row in csv.DictReader(file)]  # fmt: skip
-
-
+# --- measuring the wrapper route, in this process ---------------------------------------
 def instrument(trainer: Any) -> dict[str, list[float]]:
     """Record process CPU time per iteration and per update (wall time is in metrics.csv).
 
@@ -269,26 +354,44 @@ def breakdown(path: Path) -> dict[str, float]:
     return shares
 
 
-def write_results(path: Path, results: list[dict[str, Any]]) -> None:
-    """Add ``results`` to the file, replacing rows of the same env, critic and route."""
-    measured = {(r["env"], r["critic"], r["route"]) for r in results}
-    kept = []
-    if path.exists():
-        kept = [r for r in json.loads(path.read_text())["results"]
-                if (r["env"], r["critic"], r["route"]) not in measured]  # fmt: skip
+def write_results(path: Path, payload: dict[str, Any]) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({"results": kept + results}, indent=2) + "\n")
+    path.write_text(json.dumps(payload, indent=2) + "\n")
+
+
+def summarise(
+    runs: list[dict[str, Any]], ceilings: dict[str, dict[str, Any]]
+) -> list[dict[str, Any]]:
+    """Per env and setup: median frames/s, and the median of the per-round ratios to ``one``."""
+    rows = []
+    for env, setup in dict.fromkeys((r["env"], r["setup"]) for r in runs):
+        mine = [r for r in runs if (r["env"], r["setup"]) == (env, setup)]
+        ratios = []
+        for run in mine:
+            base = [
+                r for r in runs if (r["env"], r["setup"], r["round"]) == (env, "one", run["round"])
+            ]
+            if base:
+                ratios.append(run["frames_per_s"] / base[0]["frames_per_s"])
+        ceiling = ceilings[env]["ceiling_frames_per_s_one_core"] * mine[0]["processes"]
+        rate = statistics.median(r["frames_per_s"] for r in mine)
+        rows.append({"env": env, "setup": setup, "processes": mine[0]["processes"],
+                     "frames_per_s": rate, "per_round": [round(r["frames_per_s"], 1) for r in mine],
+                     "ratio_vs_one": statistics.median(ratios) if ratios else None,
+                     "ratios_per_round": [round(x, 3) for x in ratios],
+                     "ceiling_frames_per_s": ceiling, "share_of_ceiling": rate / ceiling})  # fmt: skip
+    return rows
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", nargs="+", default=["soccer", "tennis"])
-    parser.add_argument("--critic", nargs="+", default=["hierarchical", "ppo"])
-    parser.add_argument("--iterations", type=int, default=10, help="timed iterations, ours")
-    parser.add_argument("--wrapper-iterations", type=int, default=2, help="timed, wrapper route")
-    parser.add_argument("--warmup", type=int, default=1, help="iterations dropped before timing")
-    parser.add_argument("--wrapper-warmup", type=int, default=1, help="the same, wrapper route")
-    parser.add_argument("--skip-wrapper", action="store_true", help="time the rlhc route only")
+    parser.add_argument("--critic", default="hierarchical")
+    parser.add_argument("--setups", nargs="+", default=list(SETUPS), choices=list(SETUPS))
+    parser.add_argument("--iterations", type=int, default=6, help="timed updates per run")
+    parser.add_argument("--warmup", type=int, default=1, help="updates dropped before timing")
+    parser.add_argument("--repeats", type=int, default=1, help="rounds over the setups")
+    parser.add_argument("--wrapper", action="store_true", help="add the PettingZooWrapper route")
     parser.add_argument("--breakdown", type=Path, help="summarise a py-spy raw profile and exit")
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args()
@@ -297,41 +400,55 @@ def main() -> None:
         return
 
     load_before = os.getloadavg()
-    results = []
-    for env in args.env:
-        for critic in args.critic:
-            ours = bench_route("rlhc", env, critic, args.iterations, args.warmup)
-            results.append(ours)
-            if args.skip_wrapper:
-                continue
-            theirs = bench_route(
-                "wrapper", env, critic, args.wrapper_iterations, args.wrapper_warmup
+    ceilings = {env: ceiling(env, args.critic, []) for env in args.env}
+    runs = []
+    for round_ in range(args.repeats):
+        for env in args.env:
+            discrete = env == "soccer"
+            for setup in args.setups:
+                if setup in DISCRETE_ONLY and not discrete:
+                    continue
+                run = run_setup(env, args.critic, setup, args.iterations, args.warmup)
+                run["round"] = round_
+                runs.append(run)
+                print(f"round {round_} {env:7} {setup:15} {run['frames_per_s']:>8,.0f} frames/s "
+                      f"(env {run['env_steps_per_s']:,.0f} steps/s)", flush=True)  # fmt: skip
+    for env in args.env:  # the GEMM rate again, after the runs: the machine may have changed
+        ceilings[env]["gemm_gflops_one_core_after"] = gemm_gflops(
+            ceilings[env]["gemm_rows"], ceilings[env]["gemm_width"]
+        )
+    rows = summarise(runs, ceilings)
+    print(
+        f"\n{'env':7} {'setup':15} {'procs':>5} {'frames/s':>9} {'vs one':>7} {'ceiling':>9} {'share':>6}"
+    )
+    for row in rows:
+        ratio = row["ratio_vs_one"]
+        print(f"{row['env']:7} {row['setup']:15} {row['processes']:>5} {row['frames_per_s']:>9,.0f} "
+              f"{'' if ratio is None else f'{ratio:.2f}x':>7} {row['ceiling_frames_per_s']:>9,.0f} "
+              f"{row['share_of_ceiling']:>6.0%}")  # fmt: skip
+    for env, info in ceilings.items():
+        print(f"{env}: {info['flop_per_frame'] / 1e6:.2f} MFLOP per frame "
+              f"({info['collection_flop_per_frame'] / 1e6:.2f} collect, "
+              f"{info['update_flop_per_frame'] / 1e6:.2f} update); GEMM "
+              f"[{info['gemm_rows']}x{info['gemm_width']}]@[{info['gemm_width']}x{info['gemm_width']}] "
+              f"{info['gemm_gflops_one_core']:.1f} GFLOP/s on one core before the runs, "
+              f"{info['gemm_gflops_one_core_after']:.1f} after")  # fmt: skip
+    wrapper = []
+    if args.wrapper:
+        for env in args.env:
+            ours = bench_route("rlhc", env, args.critic, args.iterations, args.warmup)
+            theirs = bench_route("wrapper", env, args.critic, max(1, args.iterations // 4), 1)
+            theirs["ratio_rlhc_vs_wrapper"] = (
+                ours["train_frames_per_s"] / theirs["train_frames_per_s"]
             )
-            results.append(theirs)
-            ratio = ours["train_frames_per_s"] / theirs["train_frames_per_s"]
-            cpu_ratio = ours["train_frames_per_cpu_s"] / theirs["train_frames_per_cpu_s"]
-            for row in (ours, theirs):
-                row["ratio_vs_wrapper"], row["cpu_ratio_vs_wrapper"] = ratio, cpu_ratio
-            print(f"{env:7} {critic:13} rlhc / wrapper: {ratio:.1f}x wall, {cpu_ratio:.1f}x CPU",
-                  flush=True)  # fmt: skip
-
-    print(f"\n{'env':7} {'critic':13} {'route':8} {'worlds':>6} {'frames/s':>9} {'/CPU-s':>9} "
-          f"{'collect':>7} {'core':>5} {'ratio':>6} {'CPU ratio':>9}")  # fmt: skip
-    for row in results:
-        ratio = row.get("ratio_vs_wrapper", math.nan)
-        cpu_ratio = row.get("cpu_ratio_vs_wrapper", math.nan)
-        print(f"{row['env']:7} {row['critic']:13} {row['route']:8} {row['worlds']:>6} "
-              f"{row['train_frames_per_s']:>9,.0f} {row['train_frames_per_cpu_s']:>9,.0f} "
-              f"{row['collect_share_cpu']:>7.0%} {row['cpu_per_wall']:>5.0%} {ratio:>6.1f} "
-              f"{cpu_ratio:>9.1f}")  # fmt: skip
+            wrapper += [ours, theirs]
     meta = {"machine": platform.machine(), "cpus": multiprocessing.cpu_count(),
             "python": platform.python_version(), "date": time.strftime("%Y-%m-%d %H:%M %Z"),
             "loadavg_before": load_before, "loadavg_after": os.getloadavg(),
-            "iterations": args.iterations, "wrapper_iterations": args.wrapper_iterations,
-            "warmup": args.warmup, "wrapper_warmup": args.wrapper_warmup}  # fmt: skip
-    for row in results:
-        row["measured"] = meta
-    write_results(args.output, results)
+            "iterations": args.iterations, "warmup": args.warmup, "repeats": args.repeats,
+            "command": " ".join([Path(sys.executable).name, *sys.argv])}  # fmt: skip
+    write_results(args.output, {"measured": meta, "summary": rows, "ceilings": ceilings,
+                                "runs": runs, "wrapper_route": wrapper})  # fmt: skip
     print(f"wrote {args.output}")
 
 
