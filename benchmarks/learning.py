@@ -69,13 +69,20 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         "paper": (),  # Table 3 as composed by conf/table3/tennis.yaml
         # Beyond the paper: a league of opponents, at the paper's budget.
         "league": ("league=mixed",),
+        # The paper preset on 2 processes, collection overlapped with the update.
+        "pipeline": ("parallel=pipeline",),
     },
     "soccer": {
         "paper": (),  # Table 3 as composed by conf/table3/soccer.yaml
         # Beyond the paper: a league, ball-progress shaping and twice the budget.
         "best": ("league=mixed", "shaping.scale=0.1", "algo.max_steps=1000000"),
+        "pipeline": ("parallel=pipeline",),
+        # ML-Agents 0.5's discrete network: actor and worker critic on one trunk.
+        "trunk_pipeline": ("parallel=pipeline", "model.shared_trunk=true"),
     },
 }
+#: Presets that train on several processes (``torchrun --nproc_per_node``); others: one.
+PROCESSES: dict[str, int] = {"pipeline": 2, "trunk_pipeline": 2}
 
 
 @dataclass(frozen=True)
@@ -97,6 +104,7 @@ class LearningRun:
     seed: int
     overrides: tuple[str, ...]
     results: Path
+    processes: int = 1
 
     @property
     def run_dir(self) -> Path:
@@ -106,7 +114,10 @@ class LearningRun:
         """The training command, run from the repository root with the project's python."""
         tail = [f"resume={shown(self.run_dir)}"] if resume else []
         run_dir = f"hydra.run.dir={shown(self.run_dir)}"
-        return ["python", "-m", "rlhc.run", *self.overrides, run_dir, *tail]
+        launcher = ["python"]
+        if self.processes > 1:
+            launcher = ["torchrun", "--standalone", f"--nproc_per_node={self.processes}"]
+        return [*launcher, "-m", "rlhc.run", *self.overrides, run_dir, *tail]
 
 
 def shown(path: Path) -> str:
@@ -134,8 +145,11 @@ def plan(args: argparse.Namespace) -> list[LearningRun]:
                 *LOGGING,
                 *args.extra_overrides,
             )
+            processes = PROCESSES.get(args.preset, 1)
             runs.append(
-                LearningRun(args.env, preset_dir(args), critic, seed, overrides, args.results)
+                LearningRun(
+                    args.env, preset_dir(args), critic, seed, overrides, args.results, processes
+                )
             )
     return runs
 
@@ -184,8 +198,14 @@ def execute(run: LearningRun) -> tuple[LearningRun, int, float]:
     with (run.run_dir / "train.log").open("a") as log:
         log.write(f"code version: {code_version()}\ncommand: {shlex.join(command)}\n")
         log.flush()
+        launcher = [sys.executable]
+        if run.processes > 1:  # torchrun, as the module of this python
+            launcher = [sys.executable, "-m", "torch.distributed.run"]
         code = subprocess.call(
-            [sys.executable, *command[1:]], cwd=ROOT, stdout=log, stderr=subprocess.STDOUT
+            [*launcher, *command[1:]],  # command[0]: "python" or "torchrun"
+            cwd=ROOT,
+            stdout=log,
+            stderr=subprocess.STDOUT,
         )
     return run, code, time.perf_counter() - start
 

@@ -3,9 +3,10 @@
 A frame is one world-decision. Each *setup* is a real training run, started as a user
 starts it (``python -m rlhc.run`` or ``torchrun --standalone --nproc_per_node=2 -m
 rlhc.run``, Table 3 untouched, one torch thread per process), timed from its own
-``metrics.csv``: one row per update, and the rate is the frames over the wall time
-between the first and the last row after ``--warmup`` updates (logging and the
-data-parallel metric merges included; checkpoints pushed past the end).
+``metrics.csv``: a row per ``logger.summary_freq`` world-decisions, as Table 3 logs,
+and the rate is the frames over the wall time between the first row and the last
+(everything the loop does is included: collection, update, logging and the
+data-parallel metric merges; checkpoints pushed past the end).
 
 | setup | command |
 |---|---|
@@ -29,10 +30,10 @@ this process); ``--breakdown`` summarises a py-spy profile instead.
 
 Examples:
     python benchmarks/train_throughput.py --env soccer tennis --repeats 2
-    python benchmarks/train_throughput.py --env soccer --setups one pipeline --iterations 8
+    python benchmarks/train_throughput.py --env soccer --setups one pipeline --updates 21 22
     python benchmarks/train_throughput.py --env soccer --setups one --wrapper
     py-spy record --format raw -o soccer.txt -- python benchmarks/train_throughput.py \\
-        --env soccer --setups one --iterations 40
+        --env soccer --setups one --updates 41 22
     python benchmarks/train_throughput.py --breakdown soccer.txt
 """
 
@@ -97,14 +98,14 @@ def bench_overrides(iterations: int, frames_per_batch: int) -> list[str]:
 
 
 # --- processes -------------------------------------------------------------------------
-def run_setup(env: str, critic: str, setup: str, iterations: int, warmup: int) -> dict[str, Any]:
-    """Train ``warmup + iterations`` updates with ``setup``; frames/s after the warm-up."""
+def run_setup(env: str, critic: str, setup: str, updates: int) -> dict[str, Any]:
+    """Train ``updates`` updates with ``setup``; frames/s from the first logged row on."""
     from rlhc.builders import Layout
 
     processes, extra = SETUPS[setup]
     layout = Layout.from_config(compose_config(env, critic, []))
     overrides = [f"env={env}", f"critic={critic}", *extra,
-                 *bench_overrides(warmup + iterations, layout.frames_per_batch)]  # fmt: skip
+                 *run_overrides(updates * layout.frames_per_batch)]  # fmt: skip
     launcher = TORCHRUN if processes > 1 else [sys.executable]
     with tempfile.TemporaryDirectory(prefix=f"bench_{setup}_") as tmp:
         command = [*launcher, "-m", "rlhc.run", *overrides, f"hydra.run.dir={tmp}/run"]
@@ -112,15 +113,24 @@ def run_setup(env: str, critic: str, setup: str, iterations: int, warmup: int) -
         if done.returncode != 0:
             raise RuntimeError(f"{' '.join(command)} failed:\n{done.stderr[-3000:]}")
         rows = read_metrics(Path(tmp) / "run")
-    if len(rows) != warmup + iterations:
-        raise RuntimeError(f"expected one metrics row per iteration, got {len(rows)}")
-    timed = rows[warmup - 1 :] if warmup > 0 else rows
-    frames = timed[-1]["frames"] - (timed[0]["frames"] if warmup > 0 else 0.0)
-    seconds = timed[-1]["wall_time"] - (timed[0]["wall_time"] if warmup > 0 else 0.0)
+    if len(rows) < 2:
+        raise RuntimeError(f"{setup}: {len(rows)} metrics row(s); raise --updates")
+    frames = rows[-1]["frames"] - rows[0]["frames"]
+    seconds = rows[-1]["wall_time"] - rows[0]["wall_time"]
     return {"env": env, "critic": critic, "setup": setup, "processes": processes,
             "frames_per_s": frames / seconds, "frames": frames, "seconds": seconds,
-            "env_steps_per_s": statistics.mean(r["env_steps_per_s"] for r in rows[warmup:]),
+            "env_steps_per_s": statistics.mean(r["env_steps_per_s"] for r in rows[1:]),
             "worlds": layout.num_envs, "frames_per_batch": layout.frames_per_batch}  # fmt: skip
+
+
+def run_overrides(max_steps: int) -> list[str]:
+    """Table 3 untouched (its summary period too); the length, CSV only, no checkpoints."""
+    return [
+        f"algo.max_steps={max_steps}",
+        "logger.backends=[csv]",
+        "logger.progress=false",
+        "checkpoint_freq=1000000000",  # one checkpoint, at the end, outside the timing
+    ]
 
 
 def read_metrics(run_dir: Path) -> list[dict[str, float]]:
@@ -388,8 +398,10 @@ def main() -> None:
     parser.add_argument("--env", nargs="+", default=["soccer", "tennis"])
     parser.add_argument("--critic", default="hierarchical")
     parser.add_argument("--setups", nargs="+", default=list(SETUPS), choices=list(SETUPS))
-    parser.add_argument("--iterations", type=int, default=6, help="timed updates per run")
-    parser.add_argument("--warmup", type=int, default=1, help="updates dropped before timing")
+    parser.add_argument("--updates", type=int, nargs=2, default=[13, 22], metavar=("SOCCER", "TENNIS"),
+                        help="updates per run (timed from the first summary row: 2 and 7 updates)")  # fmt: skip
+    parser.add_argument("--iterations", type=int, default=4, help="timed updates, --wrapper")
+    parser.add_argument("--warmup", type=int, default=1, help="updates not timed, --wrapper")
     parser.add_argument("--repeats", type=int, default=1, help="rounds over the setups")
     parser.add_argument("--wrapper", action="store_true", help="add the PettingZooWrapper route")
     parser.add_argument("--breakdown", type=Path, help="summarise a py-spy raw profile and exit")
@@ -408,7 +420,8 @@ def main() -> None:
             for setup in args.setups:
                 if setup in DISCRETE_ONLY and not discrete:
                     continue
-                run = run_setup(env, args.critic, setup, args.iterations, args.warmup)
+                updates = args.updates[0] if env == "soccer" else args.updates[1]
+                run = run_setup(env, args.critic, setup, updates)
                 run["round"] = round_
                 runs.append(run)
                 print(f"round {round_} {env:7} {setup:15} {run['frames_per_s']:>8,.0f} frames/s "
@@ -445,7 +458,7 @@ def main() -> None:
     meta = {"machine": platform.machine(), "cpus": multiprocessing.cpu_count(),
             "python": platform.python_version(), "date": time.strftime("%Y-%m-%d %H:%M %Z"),
             "loadavg_before": load_before, "loadavg_after": os.getloadavg(),
-            "iterations": args.iterations, "warmup": args.warmup, "repeats": args.repeats,
+            "updates": args.updates, "repeats": args.repeats,
             "command": " ".join([Path(sys.executable).name, *sys.argv])}  # fmt: skip
     write_results(args.output, {"measured": meta, "summary": rows, "ceilings": ceilings,
                                 "runs": runs, "wrapper_route": wrapper})  # fmt: skip
