@@ -1,5 +1,5 @@
 # Two commands set everything up on a fresh machine:
-#   make train   installs into .venv (if missing) and runs a short default training run
+#   make train   installs into .venv (if missing) and runs the default game's paper preset
 #   make test    installs into .venv (if missing) and runs the test suite
 VENV   ?= .venv
 PYTHON ?= python3
@@ -20,8 +20,15 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e ".[dev,cluster]"
 	touch $(STAMP)
 
+# make train PROCS=2: the same run on 2 processes, collection overlapped with the update
+# (torchrun, parallel=pipeline; README "Training on several processes").
+PROCS  ?= 1
 train: $(STAMP)
+ifeq ($(PROCS),1)
 	$(PY) -m rlhc.run
+else
+	$(PY) -m torch.distributed.run --standalone --nproc_per_node=$(PROCS) -m rlhc.run parallel=pipeline
+endif
 
 # pytest exits 5 when it collects no tests: not a failure.
 test: $(STAMP)

@@ -380,9 +380,9 @@ class Trainer:
                 if self.league is not None and self.iteration % cfg.league.snapshot_interval == 0:
                     self.league.add_snapshot(self.actors)
                 self.wall_time = time.perf_counter() - start
-                summary["env_steps_per_s"].append(
-                    self._remote.get("env_steps_per_s", frames / collect_time)
-                )
+                # Collection's own speed (a pipeline learner waited, the collector collected).
+                env_rate = self._remote.get("env_steps_per_s", frames / collect_time)
+                summary["env_steps_per_s"].append(env_rate)
                 summary["train_frames_per_s"].append(frames / (collect_time + update_time))
                 progress.update(self.frames - previous)
 
@@ -397,7 +397,7 @@ class Trainer:
                     episodes.clear()
                 if self._crossed(previous, cfg.checkpoint_freq) or self._finished():
                     saved = (self.frames, self.save())
-                line = lines.update(self.frames, collect_time, last_metrics)
+                line = lines.update(self.frames, frames / env_rate, last_metrics)
                 if main and line is not None:
                     log.info(line)
                 stopping = stop.received is not None
