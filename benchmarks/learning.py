@@ -21,9 +21,9 @@ never mixes with full runs.
 
 Usage::
 
-    python benchmarks/learning.py --env tennis --preset paper --critic ppo hierarchical --seeds 0 1 --jobs 2 --matches 100
-    python benchmarks/learning.py --env tennis --preset paper --critic ppo --seeds 0 --evaluate-only
-    python benchmarks/learning.py --env tennis --preset paper --critic ppo --max-steps 2560 --matches 4 --extra-overrides experiment=smoke
+    python -m benchmarks.learning --env tennis --preset paper --critic ppo hierarchical --seeds 0 1 --jobs 2 --matches 100
+    python -m benchmarks.learning --env tennis --preset paper --critic ppo --seeds 0 --evaluate-only
+    python -m benchmarks.learning --env tennis --preset paper --critic ppo --max-steps 2560 --matches 4 --extra-overrides experiment=smoke
 """
 
 from __future__ import annotations
@@ -43,9 +43,9 @@ from typing import Any
 import numpy as np
 import torch
 from omegaconf import OmegaConf
-from reporting.learning import OPPONENTS, means_over_seeds, plot_curves, table
-from reproduce import code_version
 
+from benchmarks.reporting.learning import OPPONENTS, means_over_seeds, plot_curves, table
+from benchmarks.reporting.summary import code_version
 from rlhc.checkpoint import CHECKPOINT_DIR, load_checkpoint
 from rlhc.evaluation.matches import evaluate_against, make_match_env
 from rlhc.evaluation.opponents import make_team_policy
@@ -314,7 +314,7 @@ def record(run: LearningRun, args: argparse.Namespace) -> dict[str, Any]:
 
 def benchmark_command(args: argparse.Namespace) -> str:
     """The invocation that trains and evaluates these runs (``--jobs`` changes nothing)."""
-    words = ["python", "benchmarks/learning.py", "--env", args.env, "--preset", args.preset]
+    words = ["python", "-m", "benchmarks.learning", "--env", args.env, "--preset", args.preset]
     words += ["--critic", *args.critic, "--seeds", *map(str, args.seeds)]
     words += ["--matches", str(args.matches), "--eval-seed", str(args.eval_seed)]
     if args.max_steps:

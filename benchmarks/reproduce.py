@@ -1,16 +1,18 @@
 """Reproduce the paper's comparison: RLHC vs PPO on tennis and soccer (+ extensions).
 
-Runs every configuration of the study as a separate ``python -m rlhc.run`` process,
-``--jobs`` at a time (one per core), each in
-``benchmarks/results/reproduce/<study>/<config>/seed_<k>/``. A run whose final
-checkpoint exists is skipped, so a killed reproduction continues where it stopped
-(and an unfinished run resumes from its latest checkpoint).
+Runs every run of the plan (:data:`benchmarks.reporting.plan.STUDIES`) as a separate
+``python -m rlhc.run`` process, ``--jobs`` at a time (one per core), each in
+``benchmarks/results/reproduce/<study>/<config>/seed_<k>/``. After each process it
+writes the run's ``summary.json`` (:mod:`benchmarks.reporting.summary`: frames, budget,
+overrides, code versions, complete or not), which the report reads. A run whose summary
+says complete is skipped; an unfinished run resumes from its latest checkpoint.
 
-Usage::
+Usage (from the repository root)::
 
-    python benchmarks/reproduce.py --jobs 2                 # the whole study (~11 M frames)
-    python benchmarks/reproduce.py --study tennis --seeds 2 # a part of it
-    python benchmarks/report.py                             # docs/RESULTS.md from the runs
+    python -m benchmarks.reproduce --jobs 2                 # the whole study (~11 M frames)
+    python -m benchmarks.reproduce --study tennis --seeds 2 # a part of it
+    python -m benchmarks.reproduce --summaries-only         # summary.json of trained runs
+    python -m benchmarks.report --matches 0                 # docs/RESULTS.md from the runs
 """
 
 from __future__ import annotations
@@ -19,97 +21,30 @@ import argparse
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
-from pathlib import Path
 
-from rlhc.checkpoint import CHECKPOINT_DIR, LATEST, load_checkpoint
-
-RESULTS = Path(__file__).resolve().parent / "results" / "reproduce"
-
-
-@dataclass(frozen=True)
-class Run:
-    """One training run of the study."""
-
-    study: str
-    config: str
-    seed: int
-    overrides: tuple[str, ...]
-    max_steps: int
-
-    @property
-    def run_dir(self) -> Path:
-        return RESULTS / self.study / self.config / f"seed_{self.seed}"
-
-    def is_done(self) -> bool:
-        """Its latest checkpoint has reached ``max_steps`` frames."""
-        latest = self.run_dir / CHECKPOINT_DIR / LATEST
-        return latest.exists() and load_checkpoint(latest)["frames"] >= self.max_steps
+from benchmarks.reporting.plan import RESULTS, STUDIES, PlannedRun, plan
+from benchmarks.reporting.summary import (
+    TRAIN_LOG,
+    code_version,
+    read_summary,
+    summarise,
+    write_summary,
+)
+from rlhc.checkpoint import CHECKPOINT_DIR, LATEST
 
 
-#: study -> (config name -> overrides), seeds, frames per run (paper Table 3).
-STUDIES: dict[str, tuple[dict[str, tuple[str, ...]], int, int]] = {
-    "tennis": (
-        {
-            "ppo": ("env=tennis", "critic=ppo", "env.extended_obs=false"),
-            "hierarchical": ("env=tennis", "critic=hierarchical", "env.extended_obs=false"),
-            "ppo_extended": ("env=tennis", "critic=ppo", "env.extended_obs=true"),
-            "hierarchical_extended": ("env=tennis", "critic=hierarchical", "env.extended_obs=true"),
-        },
-        5,
-        200_000,
-    ),
-    "soccer": (
-        {
-            "ppo": ("env=soccer", "critic=ppo"),
-            "hierarchical": ("env=soccer", "critic=hierarchical"),
-        },
-        5,
-        500_000,
-    ),
-    "tennis_extensions": (
-        {
-            "manager": ("env=tennis", "critic=manager"),
-            "mean": ("env=tennis", "critic=mean"),
-            "hierarchical_k5": ("env=tennis", "critic=hierarchical", "critic.manager_interval=5"),
-        },
-        3,
-        200_000,
-    ),
-}
+def is_done(run: PlannedRun) -> bool:
+    """Its summary records that it reached ``max_steps`` frames."""
+    summary = read_summary(run.run_dir(RESULTS))
+    return summary is not None and summary.completed
 
 
-def plan(studies: list[str], seeds: int | None) -> list[Run]:
-    """Seed-major order, so that a partial reproduction compares configs on equal seeds."""
-    runs = []
-    for study in studies:
-        configs, default_seeds, max_steps = STUDIES[study]
-        for seed in range(seeds if seeds is not None else default_seeds):
-            for config, overrides in configs.items():
-                runs.append(Run(study, config, seed, overrides, max_steps))
-    return runs
-
-
-def code_version() -> str:
-    """The git commit the run trains with (``+dirty`` with uncommitted changes)."""
-    root = Path(__file__).resolve().parents[1]
-    try:
-        commit = subprocess.check_output(["git", "rev-parse", "HEAD"], cwd=root, text=True)
-        dirty = subprocess.check_output(
-            ["git", "status", "--porcelain", "--untracked-files=no", "rlhc", "conf"],
-            cwd=root,
-            text=True,
-        )
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown (not a git checkout)"
-    return commit.strip() + ("+dirty" if dirty.strip() else "")
-
-
-def execute(run: Run) -> tuple[Run, int, float]:
-    """Train one run (resuming it if a checkpoint exists); returns its exit code and time."""
-    run.run_dir.mkdir(parents=True, exist_ok=True)
-    command = [
+def command(run: PlannedRun) -> list[str]:
+    """The training process of a run (resuming it if it keeps a checkpoint)."""
+    run_dir = run.run_dir(RESULTS)
+    words = [
         sys.executable,
         "-m",
         "rlhc.run",
@@ -118,37 +53,65 @@ def execute(run: Run) -> tuple[Run, int, float]:
         f"algo.max_steps={run.max_steps}",
         "logger.backends=[csv]",
         "logger.progress=false",
-        f"hydra.run.dir={run.run_dir}",
+        f"hydra.run.dir={run_dir}",
     ]
-    if (run.run_dir / CHECKPOINT_DIR / LATEST).exists():
-        command.append(f"resume={run.run_dir}")
+    if (run_dir / CHECKPOINT_DIR / LATEST).exists():
+        words.append(f"resume={run_dir}")
+    return words
+
+
+def execute(run: PlannedRun) -> tuple[PlannedRun, int, float]:
+    """Train one run, then write its summary; returns its exit code and time."""
+    run_dir = run.run_dir(RESULTS)
+    run_dir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    with (run.run_dir / "train.log").open("a") as log:
+    with (run_dir / TRAIN_LOG).open("a") as log:
         log.write(f"code version: {code_version()}\n")
         log.flush()
-        code = subprocess.call(command, stdout=log, stderr=subprocess.STDOUT)
+        code = subprocess.call(command(run), stdout=log, stderr=subprocess.STDOUT)
+    write_summary(run_dir, summarise(run, run_dir))
     return run, code, time.perf_counter() - start
 
 
-def main() -> None:
+def write_summaries(runs: Sequence[PlannedRun]) -> int:
+    """``summary.json`` of every run that has a directory, from its files; how many."""
+    written = 0
+    for run in runs:
+        run_dir = run.run_dir(RESULTS)
+        if run_dir.is_dir():
+            write_summary(run_dir, summarise(run, run_dir))
+            written += 1
+    return written
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    """Train the runs of the chosen studies that are not complete."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--study", nargs="+", choices=sorted(STUDIES), default=list(STUDIES))
     parser.add_argument(
         "--seeds", type=int, default=None, help="seeds per config (default: study's)"
     )
     parser.add_argument("--jobs", type=int, default=2, help="runs in parallel (one per core)")
-    args = parser.parse_args()
+    parser.add_argument(
+        "--summaries-only",
+        action="store_true",
+        help="train nothing: (re)write summary.json of every existing run from its files",
+    )
+    args = parser.parse_args(argv)
 
-    todo = [run for run in plan(args.study, args.seeds) if not run.is_done()]
+    runs = plan(args.study, args.seeds)
+    if args.summaries_only:
+        print(f"wrote {write_summaries(runs)} summaries", flush=True)
+        return
+    todo = [run for run in runs if not is_done(run)]
     print(f"{len(todo)} runs to do", flush=True)
     failures = 0
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:
         for run, code, seconds in pool.map(execute, todo):
-            status = "ok" if code == 0 else f"FAILED ({code}, see {run.run_dir / 'train.log'})"
+            log = run.run_dir(RESULTS) / TRAIN_LOG
+            status = "ok" if code == 0 else f"FAILED ({code}, see {log})"
             failures += code != 0
-            print(
-                f"{run.study}/{run.config}/seed_{run.seed}: {status} in {seconds:.0f} s", flush=True
-            )
+            print(f"{run.name}/seed_{run.seed}: {status} in {seconds:.0f} s", flush=True)
     sys.exit(1 if failures else 0)
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 import json
 import math
 from pathlib import Path
@@ -10,7 +9,6 @@ from types import ModuleType
 
 import pytest
 
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 #: ``experiment=smoke`` (tiny networks and buffers) with a budget of five summaries.
 TINY = [
     *("--env", "tennis", "--preset", "paper", "--critic", "ppo", "--seeds", "0"),
@@ -21,10 +19,11 @@ RATES = ("win_rate", "draw_rate", "loss_rate")
 
 
 @pytest.fixture
-def learning(monkeypatch: pytest.MonkeyPatch) -> ModuleType:
-    """The script as a module (it imports ``reproduce`` and ``reporting`` from its folder)."""
-    monkeypatch.syspath_prepend(str(BENCHMARKS))
-    return importlib.import_module("learning")
+def learning() -> ModuleType:
+    """``python -m benchmarks.learning`` as a module."""
+    from benchmarks import learning
+
+    return learning
 
 
 def test_tiny_run_trains_evaluates_and_reports(

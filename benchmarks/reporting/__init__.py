@@ -1,20 +1,21 @@
 """The RLHC-vs-PPO reproduction report (``docs/RESULTS.md``), one idea per module.
 
-``benchmarks/report.py`` is the command line; this package holds what it does.
+``python -m benchmarks.report`` is the command line, ``python -m benchmarks.reproduce``
+trains the plan; this package holds what they share and what the report does.
 
 | module | holds |
 |---|---|
-| :mod:`~reporting.study` | the study's plan: groups, RLHC-vs-PPO pairs, smoothing and windows |
-| :mod:`~reporting.runs` | run directories, which are complete, their configs and wall times |
-| :mod:`~reporting.statistics` | smoothed finals, thresholds, steps to reach them, Welch's test |
-| :mod:`~reporting.head_to_head` | matches of final teams against each other and the scripted team |
-| :mod:`~reporting.formatting` | numbers, intervals and Markdown tables as text |
-| :mod:`~reporting.markdown` | the sections on runs, settings, config drift and finals |
-| :mod:`~reporting.environment` | package versions and the machine the report ran on |
-| :mod:`~reporting.document` | the whole ``RESULTS.md`` from the sections |
-| :mod:`~reporting.learning` | ``benchmarks/learning.py``'s means over seeds, curves and table |
-
-The package lives in ``benchmarks/`` next to ``reproduce.py`` (a script, not a
-package) and imports it as a top-level module: whatever makes ``reporting``
-importable (``benchmarks/`` on ``sys.path``) makes ``reproduce`` importable too.
+| :mod:`~benchmarks.reporting.plan` | the study's plan: studies, configs, seeds, budgets |
+| :mod:`~benchmarks.reporting.summary` | a run's ``summary.json``: frames, budget, code version |
+| :mod:`~benchmarks.reporting.study` | groups, RLHC-vs-PPO pairs, smoothing and windows |
+| :mod:`~benchmarks.reporting.runs` | run directories, their summaries and configs |
+| :mod:`~benchmarks.reporting.statistics` | smoothed finals, thresholds, steps to reach them, Welch's test |
+| :mod:`~benchmarks.reporting.head_to_head` | matches of final teams against each other and the scripted team |
+| :mod:`~benchmarks.reporting.formatting` | numbers, intervals and Markdown tables as text |
+| :mod:`~benchmarks.reporting.markdown` | the sections on runs, settings, config drift and finals |
+| :mod:`~benchmarks.reporting.figures` | the figures (drawing only) |
+| :mod:`~benchmarks.reporting.environment` | package versions and the machine the report ran on |
+| :mod:`~benchmarks.reporting.blocks` | the named generated and hand-written blocks of the document |
+| :mod:`~benchmarks.reporting.document` | the whole ``RESULTS.md`` from the sections |
+| :mod:`~benchmarks.reporting.learning` | ``benchmarks/learning.py``'s means over seeds, curves and table |
 """

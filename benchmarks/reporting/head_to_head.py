@@ -102,12 +102,30 @@ def play_series(env_name: str, home: str, away: str, matches: int, seed: int) ->
     return record_of(summary)
 
 
+def require_checkpoints(runs: Sequence[StudyRun]) -> None:
+    """Matches play the runs' final checkpoints, which the committed study does not keep.
+
+    Raises:
+        FileNotFoundError: a run keeps no checkpoint (the first such run is named).
+    """
+    from rlhc.checkpoint import CHECKPOINT_DIR, LATEST
+
+    for run in runs:
+        if not (run.path / CHECKPOINT_DIR / LATEST).exists():
+            raise FileNotFoundError(
+                f"{run.path} keeps no {CHECKPOINT_DIR}/{LATEST}: matches need the runs' "
+                "checkpoints (not committed); train them, or pass --matches 0 to keep the "
+                "previous report's matches"
+            )
+
+
 def matches_section(
     runs: Sequence[StudyRun], studies: Sequence[str], matches: int
 ) -> tuple[list[str], list[str]]:
     """Head-to-head and against-scripted tables; also the head-to-head verdicts."""
     if matches <= 0:
         return ["Not played (`--matches 0`)."], []
+    require_checkpoints([r for r in runs if r.complete and r.study in studies])
     lines: list[str] = []
     verdicts: list[str] = []
     head_rows, pair_rows = [], []
@@ -161,7 +179,7 @@ def matches_section(
     ]
     scripted_rows = []
     for study in studies:
-        for config in STUDIES[study][0]:
+        for config in STUDIES[study].configs:
             members = complete_runs(runs, f"{study}/{config}")
             records = [
                 play_series(study_env(study), str(r.path), "scripted", matches, r.seed)

@@ -9,13 +9,15 @@ checkpoint against the built-in teams (``vs_random``, ``vs_scripted``:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from rlhc.plotting import METRICS_FILE, Run, aggregate, read_metrics
+from rlhc.plotting import METRICS_FILE, Run, read_metrics
+
+from .figures import draw_learning_curves
 
 #: The built-in teams every final checkpoint plays.
 OPPONENTS = ("random", "scripted")
@@ -72,11 +74,35 @@ def means_over_seeds(runs: Sequence[dict[str, Any]]) -> dict[str, Any]:
     return means
 
 
+def read_curves(run_dirs: Mapping[str, Sequence[Path]]) -> dict[str, list[Run]]:
+    """Critic -> the metrics of its run directories (each holding ``metrics.csv``), by critic."""
+    return {
+        critic: [Run(path, read_metrics(path / METRICS_FILE)) for path in paths]
+        for critic, paths in sorted(run_dirs.items())
+    }
+
+
+def panels_of(env: str, runs: Mapping[str, Sequence[Run]]) -> dict[str, str]:
+    """The panels of a game (:data:`CURVES`); soccer adds every logged ``*/cumulative_reward``."""
+    panels = dict(CURVES[env])
+    if env == "soccer":
+        logged = sorted({name for group in runs.values() for r in group for name in r.columns})
+        panels.update({name: name for name in logged if name.endswith("/cumulative_reward")})
+    return panels
+
+
 def plot_curves(
-    run_dirs: dict[str, list[Path]], env: str, title: str, out: Path, smoothing: float = SMOOTHING
+    run_dirs: Mapping[str, Sequence[Path]],
+    env: str,
+    title: str,
+    out: Path,
+    smoothing: float = SMOOTHING,
 ) -> Path:
     """Curves of :data:`CURVES` against frames: one line per critic, the mean over its
     seeds (each TensorBoard-smoothed), shaded by the 95% t interval across seeds.
+
+    Reads the runs (:func:`read_curves`) and draws them
+    (:func:`reporting.figures.draw_learning_curves`).
 
     Args:
         run_dirs: critic -> its run directories (each holding ``metrics.csv``).
@@ -88,44 +114,8 @@ def plot_curves(
     Returns:
         ``out``.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")  # files only: never needs a display
-    import matplotlib.pyplot as plt
-
-    runs = {
-        critic: [Run(path, read_metrics(path / METRICS_FILE)) for path in paths]
-        for critic, paths in sorted(run_dirs.items())
-    }
-    panels = dict(CURVES[env])
-    if env == "soccer":
-        logged = sorted({name for group in runs.values() for r in group for name in r.columns})
-        panels.update({name: name for name in logged if name.endswith("/cumulative_reward")})
-    fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.6), squeeze=False)
-    for ax, (metric, label) in zip(axes.flat, panels.items(), strict=True):
-        for critic, members in runs.items():
-            curve = aggregate(members, metric, smoothing)
-            if curve is None:
-                continue
-            seeds = f"{curve.runs} seed{'s' if curve.runs > 1 else ''}"
-            (line,) = ax.plot(curve.steps, curve.mean, label=f"{critic} ({seeds})")
-            if curve.runs > 1:
-                ax.fill_between(
-                    curve.steps, curve.low, curve.high, color=line.get_color(), alpha=0.2
-                )
-        if ax.lines:
-            ax.legend(fontsize="small")
-        else:  # e.g. soccer before its first episode ends
-            ax.text(0.5, 0.5, "not logged", ha="center", va="center", transform=ax.transAxes)
-        ax.set_title(label)
-        ax.set_xlabel("frames (world-decisions)")
-        ax.grid(alpha=0.3)
-    fig.suptitle(f"{title} (smoothing {smoothing})")
-    fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
-    return out
+    runs = read_curves(run_dirs)
+    return draw_learning_curves(runs, panels_of(env, runs), title, out, smoothing)
 
 
 def _share(value: float, width: int = 5) -> str:

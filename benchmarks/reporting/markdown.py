@@ -15,7 +15,7 @@ import numpy as np
 from rlhc.evaluation.stats import t_interval
 
 from .formatting import fmt, fmt_interval, fmt_reach, table
-from .runs import StudyRun, complete_runs, config_drift, wall_time
+from .runs import StudyRun, complete_runs, config_drift
 from .statistics import Comparison, ConfigFinals, config_finals, fill_reach, finite
 from .study import GROUPS, SMOOTHING, STUDIES, comparisons_of, study_env, table_configs
 
@@ -41,27 +41,27 @@ SETTINGS = (
 
 
 def runs_section(runs: Sequence[StudyRun], studies: Sequence[str]) -> list[str]:
-    """Which runs exist, which are complete, and their wall time."""
+    """Which runs exist, which are complete, and their wall time (from their summaries)."""
     rows = []
-    for study in studies:
-        configs, planned, max_steps = STUDIES[study]
-        for config, overrides in configs.items():
-            mine = [r for r in runs if r.study == study and r.config == config]
+    for name in studies:
+        study = STUDIES[name]
+        for config, overrides in study.configs.items():
+            mine = [r for r in runs if r.study == name and r.config == config]
             done = [r for r in mine if r.complete]
             partial = [
-                f"seed {r.seed} ({f'{r.frames:,} frames' if r.frames else 'no checkpoint yet'})"
+                f"seed {r.seed} ({f'{r.frames:,} frames' if r.frames else 'no summary yet'})"
                 for r in mine
                 if not r.complete
             ]
             frames = sorted({r.frames for r in done if r.frames is not None})
-            times = [wall_time(r) for r in done]
+            times = [r.wall_time for r in done]
             rows.append(
                 [
-                    f"`{study}/{config}`",
+                    f"`{name}/{config}`",
                     "`" + " ".join(overrides) + "`",
-                    f"{max_steps:,}",
+                    f"{study.max_steps:,}",
                     ", ".join(f"{f:,}" for f in frames) or "—",
-                    f"{len(done)} of {planned}",
+                    f"{len(done)} of {study.seeds}",
                     ", ".join(str(r.seed) for r in done) or "—",
                     "; ".join(partial) or "—",
                     fmt_interval(t_interval([t for t in times if math.isfinite(t)]), 0, fixed=True),
@@ -77,7 +77,7 @@ def runs_section(runs: Sequence[StudyRun], studies: Sequence[str]) -> list[str]:
         "unfinished (excluded)",
         "wall time per run, s",
     ]
-    total = sum(wall_time(r) for r in runs if r.complete)
+    total = sum(r.wall_time for r in runs if r.complete)
     return [
         *table(header, rows),
         "",

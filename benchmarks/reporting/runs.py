@@ -1,97 +1,138 @@
 """The study's run directories: which exist, which are complete, what they recorded.
 
-``benchmarks/reproduce.py`` writes each run to ``<results>/<study>/<config>/seed_<k>/``.
-A run is complete when its ``checkpoints/latest.pt`` has reached the study's
-``max_steps`` frames; unfinished runs are listed by the report and left out of every
-statistic.
+``benchmarks/reproduce.py`` writes each run to ``<results>/<study>/<config>/seed_<k>/``
+and, after training, its ``summary.json`` (:mod:`reporting.summary`). A run is complete
+when its summary says so; a run without a summary is still training (or was never
+finished) and is left out of every statistic. Checkpoints are never read here.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 from rlhc.plotting import METRICS_FILE, Run, differing_keys, read_config, read_metrics
 
-from .study import STUDIES
+from .plan import STUDIES, PlannedRun, Study
+from .summary import RunSummary, read_summary
 
 
-@dataclass
+@dataclass(frozen=True)
 class StudyRun:
-    """One run directory of the study and how far it got."""
+    """One run directory of the study and its summary.
 
-    study: str
-    config: str
-    seed: int
+    Attributes:
+        planned: the run as the plan describes it.
+        path: its directory.
+        summary: its ``summary.json``; ``None`` while it has none.
+    """
+
+    planned: PlannedRun
     path: Path
-    frames: int | None  # of ``checkpoints/latest.pt``; ``None``: no checkpoint yet
-    max_steps: int
+    summary: RunSummary | None
 
     @property
-    def complete(self) -> bool:
-        """Its latest checkpoint has reached the study's ``max_steps`` frames."""
-        return self.frames is not None and self.frames >= self.max_steps
+    def study(self) -> str:
+        """The study's name."""
+        return self.planned.study
+
+    @property
+    def config(self) -> str:
+        """The configuration's name."""
+        return self.planned.config
+
+    @property
+    def seed(self) -> int:
+        """The run's seed."""
+        return self.planned.seed
 
     @property
     def name(self) -> str:
         """``study/config``."""
-        return f"{self.study}/{self.config}"
+        return self.planned.name
 
-    def curves(self) -> Run:
-        """Its metrics and config (only read for complete runs)."""
+    @property
+    def frames(self) -> int | None:
+        """Frames trained as summarised; ``None`` without a summary or frames."""
+        return self.summary.frames if self.summary is not None else None
+
+    @property
+    def complete(self) -> bool:
+        """Its summary records a finished run."""
+        return self.summary is not None and self.summary.completed
+
+    @property
+    def wall_time(self) -> float:
+        """The summarised training wall time in seconds (``nan``: not recorded)."""
+        if self.summary is None or self.summary.wall_time_s is None:
+            return math.nan
+        return self.summary.wall_time_s
+
+    @cached_property
+    def _curves(self) -> Run:
         return Run(self.path, read_metrics(self.path / METRICS_FILE), read_config(self.path))
 
-
-def checkpoint_frames(run_dir: Path) -> int | None:
-    """Frames of the run's latest checkpoint, ``None`` if it has none."""
-    # Imported here: torch is only needed once runs are actually discovered.
-    from rlhc.checkpoint import CHECKPOINT_DIR, LATEST, load_checkpoint
-
-    latest = run_dir / CHECKPOINT_DIR / LATEST
-    return int(load_checkpoint(latest)["frames"]) if latest.exists() else None
+    def curves(self) -> Run:
+        """Its metrics and config, read once (only read for complete runs)."""
+        return self._curves
 
 
-def discover(
-    results: Path,
-    studies: dict[str, tuple[dict[str, tuple[str, ...]], int, int]] = STUDIES,
-    frames_of: Callable[[Path], int | None] = checkpoint_frames,
-) -> list[StudyRun]:
+def check_summary(planned: PlannedRun, summary: RunSummary | None, path: Path) -> None:
+    """A summary must describe the run its directory holds.
+
+    Raises:
+        ValueError: its study, config, seed or budget is not the plan's.
+    """
+    if summary is None:
+        return
+    recorded = (summary.study, summary.config, summary.seed, summary.max_steps)
+    expected = (planned.study, planned.config, planned.seed, planned.max_steps)
+    if recorded != expected:
+        raise ValueError(
+            f"{path}: summary.json describes (study, config, seed, max_steps) = {recorded}, "
+            f"the plan expects {expected}; re-write it with "
+            "`python -m benchmarks.reproduce --summaries-only`"
+        )
+
+
+def discover(results: Path, studies: Mapping[str, Study] = STUDIES) -> list[StudyRun]:
     """Every ``<study>/<config>/seed_<k>`` directory under ``results``, in plan order.
 
     Args:
         results: the study's root (``benchmarks/results/reproduce`` by default).
-        studies: the plan, as :data:`reproduce.STUDIES`.
-        frames_of: frames trained by a run directory (tests pass a fake).
+        studies: the plan (:data:`reporting.plan.STUDIES`).
 
     Returns:
-        One :class:`StudyRun` per seed directory, complete or not.
+        One :class:`StudyRun` per seed directory, complete or not (seeds beyond the
+        plan's count too).
+
+    Raises:
+        ValueError: a summary does not describe its directory's run.
     """
     found = []
-    for study, (configs, _, max_steps) in studies.items():
-        for config in configs:
+    for study in studies.values():
+        for config, overrides in study.configs.items():
             seeds = sorted(
                 int(p.name.removeprefix("seed_"))
-                for p in (results / study / config).glob("seed_*")
+                for p in (results / study.name / config).glob("seed_*")
                 if p.is_dir() and p.name.removeprefix("seed_").isdigit()
             )
             for seed in seeds:
-                path = results / study / config / f"seed_{seed}"
-                found.append(StudyRun(study, config, seed, path, frames_of(path), max_steps))
+                planned = PlannedRun(study.name, config, seed, overrides, study.max_steps)
+                path = planned.run_dir(results)
+                summary = read_summary(path)
+                check_summary(planned, summary, path)
+                found.append(StudyRun(planned, path, summary))
     return found
 
 
 def complete_runs(runs: Iterable[StudyRun], name: str) -> list[StudyRun]:
     """The complete runs of ``study/config``, by seed."""
     return sorted((r for r in runs if r.name == name and r.complete), key=lambda r: r.seed)
-
-
-def wall_time(run: StudyRun) -> float:
-    """The trainer's ``wall_time`` in the run's last ``metrics.csv`` row (``nan``: none)."""
-    column = read_metrics(run.path / METRICS_FILE).get("wall_time")
-    return float(column[-1]) if column is not None and column.size else math.nan
 
 
 def shown(config: dict[str, Any], key: str) -> str:

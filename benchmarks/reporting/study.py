@@ -1,13 +1,12 @@
-"""The study's plan as the report reads it: groups, compared pairs, smoothing, windows.
+"""What the report compares in the study: groups, compared pairs, smoothing, windows.
 
-The configurations, seeds and frames per run come from ``benchmarks/reproduce.py``
-(:data:`STUDIES`); this module adds what only the report needs.
+The configurations, seeds and frames per run are the plan's
+(:data:`reporting.plan.STUDIES`); this module adds what only the report needs.
 """
 
 from __future__ import annotations
 
-# ``reproduce`` is a sibling script, not a package: see the package docstring.
-from reproduce import STUDIES
+from .plan import STUDIES
 
 SMOOTHING = 0.8  # TensorBoard's EMA weight, as ``python -m rlhc.plot``
 FINAL_FRACTION = 0.1  # the last 10% of each curve, by steps
@@ -32,13 +31,12 @@ GROUP_BY = {
 
 def study_env(study: str) -> str:
     """The game of a study (from its configs' ``env=`` override)."""
-    overrides = next(iter(STUDIES[study][0].values()))
-    return next(o.split("=", 1)[1] for o in overrides if o.startswith("env="))
+    return STUDIES[study].env
 
 
 def table_configs(study: str) -> list[str]:
     """``study/config`` names in a study's tables (its own, then the borrowed ones)."""
-    return [f"{study}/{c}" for c in STUDIES[study][0]] + list(BORROWED.get(study, ()))
+    return [f"{study}/{c}" for c in STUDIES[study].configs] + list(BORROWED.get(study, ()))
 
 
 def comparisons_of(study: str) -> list[tuple[str, str]]:
@@ -46,4 +44,4 @@ def comparisons_of(study: str) -> list[tuple[str, str]]:
     if study in PAIRS:
         return [(f"{study}/{a}", f"{study}/{b}") for a, b in PAIRS[study]]
     borrowed = BORROWED.get(study, ())
-    return [(f"{study}/{c}", other) for c in STUDIES[study][0] for other in borrowed]
+    return [(f"{study}/{c}", other) for c in STUDIES[study].configs for other in borrowed]

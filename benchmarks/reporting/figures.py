@@ -1,0 +1,81 @@
+"""The report's figures: drawing only; the runs they show are read by the caller.
+
+``RESULTS.md``'s curves per study are :func:`rlhc.plotting.plot_runs`'s;
+``benchmarks/learning.py``'s panels per game are :func:`draw_learning_curves`'s.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from rlhc.plotting import Run, aggregate, plot_runs
+
+from .runs import StudyRun
+from .study import GROUP_BY, SMOOTHING
+
+
+def draw_study_curves(study: str, members: Sequence[StudyRun], out: Path) -> Path:
+    """The paper's four curves of a study's complete runs (mean over seeds, 95% t band).
+
+    Args:
+        study: the study's name (picks the config keys telling its configs apart).
+        members: the runs to draw.
+        out: the PNG to write.
+
+    Returns:
+        ``out``.
+    """
+    return plot_runs([r.path for r in members], out, SMOOTHING, GROUP_BY[study])
+
+
+def draw_learning_curves(
+    runs: Mapping[str, Sequence[Run]],
+    panels: Mapping[str, str],
+    title: str,
+    out: Path,
+    smoothing: float,
+) -> Path:
+    """One panel per metric, one line per critic: the mean over its seeds (each
+    TensorBoard-smoothed), shaded by the 95% t interval across seeds.
+
+    Args:
+        runs: critic -> its runs (metrics read).
+        panels: ``metrics.csv`` column -> panel title.
+        title: the figure's title.
+        out: the PNG to write.
+        smoothing: TensorBoard smoothing weight, in ``[0, 1)``.
+
+    Returns:
+        ``out``.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")  # files only: never needs a display
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.6), squeeze=False)
+    for ax, (metric, label) in zip(axes.flat, panels.items(), strict=True):
+        for critic, members in runs.items():
+            curve = aggregate(members, metric, smoothing)
+            if curve is None:
+                continue
+            seeds = f"{curve.runs} seed{'s' if curve.runs > 1 else ''}"
+            (line,) = ax.plot(curve.steps, curve.mean, label=f"{critic} ({seeds})")
+            if curve.runs > 1:
+                ax.fill_between(
+                    curve.steps, curve.low, curve.high, color=line.get_color(), alpha=0.2
+                )
+        if ax.lines:
+            ax.legend(fontsize="small")
+        else:  # e.g. soccer before its first episode ends
+            ax.text(0.5, 0.5, "not logged", ha="center", va="center", transform=ax.transAxes)
+        ax.set_title(label)
+        ax.set_xlabel("frames (world-decisions)")
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"{title} (smoothing {smoothing})")
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
