@@ -49,7 +49,7 @@ from benchmarks.reporting.summary import code_version
 from rlhc.checkpoint import CHECKPOINT_DIR, load_checkpoint
 from rlhc.evaluation.matches import evaluate_against, make_match_env
 from rlhc.evaluation.opponents import make_team_policy
-from rlhc.plotting import METRICS_FILE, read_metrics
+from rlhc.runs import METRICS_FILE, read_metrics
 from rlhc.trainer import seed_everything
 
 ROOT = Path(__file__).resolve().parents[1]

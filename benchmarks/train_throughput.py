@@ -20,7 +20,7 @@ Setups run one after another, round-robin over ``--repeats``, and every ratio co
 runs of the same round (the machine is shared: a ratio within one invocation is what
 this measures). The ceiling: fp32 GEMM GFLOP/s on one core, measured in the same
 invocation at the shapes of the configured minibatch, times the processes, divided by
-the FLOP per frame of the configured networks (:func:`rlhc.modules.flops.training_flops`:
+the FLOP per frame of the configured networks (:func:`rlhc.flops.training_flops`:
 the actors to collect, the value estimator and ``epochs`` forward-backward passes of the
 loss to train).
 
@@ -161,7 +161,7 @@ def gemm_gflops(rows: int, width: int, seconds: float = 1.0) -> float:
 def ceiling(env: str, critic: str, overrides: list[str]) -> dict[str, Any]:
     """FLOP per frame of the configured networks and the frames/s one core allows."""
     from rlhc.builders import Layout
-    from rlhc.modules.flops import training_flops
+    from rlhc.flops import training_flops
 
     cfg = compose_config(env, critic, overrides)
     layout = Layout.from_config(cfg)

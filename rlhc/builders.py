@@ -15,8 +15,8 @@ from torchrl.envs import Compose, EnvBase, RewardSum, TransformedEnv, VecNormV2
 
 from rlhc.config import TrainConfig
 from rlhc.envs import make_env, make_game
-from rlhc.envs.tennis.rules import FAULT_PENALTIES
-from rlhc.league import validate_league
+from rlhc.envs.keys import EPISODE_REWARD, MANAGER_OBSERVATION, OBSERVATION, REWARD
+from rlhc.errors import ConfigError
 from rlhc.modules import (
     NetworkConfig,
     make_actor,
@@ -26,103 +26,8 @@ from rlhc.modules import (
     shared_trunk_error,
 )
 from rlhc.modules.specs import action_spec
-from rlhc.objectives import FUSIONS, HierarchicalPPOLoss, make_ppo_loss
+from rlhc.objectives import HierarchicalPPOLoss, make_ppo_loss
 from rlhc.shaping import PotentialShaping, game_potential
-
-EPISODE_REWARD = "episode_reward"
-MODEL_KINDS = ("mlp", "lstm")
-
-
-class ConfigError(ValueError):
-    """A config value that passed the schema but is not allowed (names it and the options)."""
-
-
-def validate(cfg: TrainConfig) -> None:
-    """Check what a schema cannot express, before anything is built."""
-    if cfg.critic.fusion not in FUSIONS:
-        raise ConfigError(f"critic.fusion={cfg.critic.fusion!r}; allowed: {', '.join(FUSIONS)}")
-    if not 0.0 <= cfg.critic.weight <= 1.0:
-        raise ConfigError(f"critic.weight={cfg.critic.weight}; allowed: a number in [0, 1]")
-    if cfg.critic.manager_interval < 1:
-        raise ConfigError(
-            f"critic.manager_interval={cfg.critic.manager_interval}; allowed: an integer >= 1"
-        )
-    if cfg.model.kind not in MODEL_KINDS:
-        raise ConfigError(f"model.kind={cfg.model.kind!r}; allowed: {', '.join(MODEL_KINDS)}")
-    if cfg.model.kind == "lstm":
-        raise ConfigError(
-            "model=lstm is not supported: both games' observations carry positions and "
-            "velocities, so a feed-forward policy sees a Markov state, and the recurrent "
-            "option would need sequence-aware minibatching that this trainer does not do. "
-            "Use model=mlp."
-        )
-    positive = {
-        "algo.max_steps": cfg.algo.max_steps,
-        "algo.buffer_size": cfg.algo.buffer_size,
-        "algo.time_horizon": cfg.algo.time_horizon,
-        "algo.batch_size": cfg.algo.batch_size,
-        "algo.epochs": cfg.algo.epochs,
-        "logger.summary_freq": cfg.logger.summary_freq,
-        "checkpoint_freq": cfg.checkpoint_freq,
-    }
-    for name, value in positive.items():
-        if value < 1:
-            raise ConfigError(f"{name}={value}; allowed: an integer >= 1")
-    non_negative = {
-        "eval_freq": (cfg.eval_freq, "0 (off) or a number of world-decisions"),
-        "threads": (cfg.threads, "0 (torch's default) or a thread count"),
-    }
-    for name, (value, allowed) in non_negative.items():
-        if value < 0:
-            raise ConfigError(f"{name}={value}; allowed: {allowed}")
-    if cfg.eval_freq and cfg.eval_matches < 2:
-        raise ConfigError(
-            f"eval_matches={cfg.eval_matches}; allowed: an integer >= 2 (half on each side)"
-        )
-    if cfg.env.num_envs is not None and cfg.env.num_envs < 1:
-        raise ConfigError(f"env.num_envs={cfg.env.num_envs}; allowed: null or an integer >= 1")
-    if not 0.0 < cfg.algo.gamma <= 1.0 or not 0.0 <= cfg.algo.lmbda <= 1.0:
-        raise ConfigError(
-            f"algo.gamma={cfg.algo.gamma}, algo.lmbda={cfg.algo.lmbda}; "
-            "allowed: gamma in (0, 1], lmbda in [0, 1]"
-        )
-    numbers = {
-        # name: (value, lowest, highest, lowest allowed itself)
-        "algo.lr": (cfg.algo.lr, 0.0, math.inf, False),
-        "algo.clip_epsilon": (cfg.algo.clip_epsilon, 0.0, 1.0, False),
-        "algo.entropy_coef": (cfg.algo.entropy_coef, 0.0, math.inf, True),
-        "algo.critic_coef": (cfg.algo.critic_coef, 0.0, math.inf, False),
-        "algo.max_grad_norm": (cfg.algo.max_grad_norm, 0.0, math.inf, False),
-        "model.initial_action_scale": (cfg.model.initial_action_scale, 0.0, math.inf, False),
-        "shaping.scale": (cfg.shaping.scale, 0.0, math.inf, True),
-    }
-    for name, (number, low, high, closed) in numbers.items():
-        above = number >= low if closed else number > low
-        if not (math.isfinite(number) and above and number < high):
-            bracket = "[" if closed else "("
-            raise ConfigError(
-                f"{name}={number}; allowed: a finite number in {bracket}{low}, {high})"
-            )
-    if cfg.shaping.scale > 0 and cfg.env.name != "soccer":
-        raise ConfigError(
-            f"shaping.scale={cfg.shaping.scale} on env={cfg.env.name!r}; allowed: 0, or "
-            "shaping on soccer (the only game with a potential)"
-        )
-    problems = validate_league(cfg.league)
-    if problems:
-        raise ConfigError("; ".join(problems))
-    interval = cfg.env.decision_interval
-    if interval is not None and interval < 1:
-        raise ConfigError(
-            f"env.decision_interval={interval}; allowed: null (the game's default) or an "
-            "integer >= 1 (physics frames per decision)"
-        )
-    fault_penalty = getattr(cfg.env, "fault_penalty", None)
-    if fault_penalty is not None and fault_penalty not in FAULT_PENALTIES:
-        raise ConfigError(
-            f"env.fault_penalty={fault_penalty!r}; allowed: null or one of "
-            f"{', '.join(FAULT_PENALTIES)}"
-        )
 
 
 @dataclass(frozen=True)
@@ -270,7 +175,7 @@ def with_training_transforms(cfg: TrainConfig, base: EnvBase) -> TransformedEnv:
     groups = group_names(base)
     transforms = [
         RewardSum(
-            in_keys=[(g, "reward") for g in groups],
+            in_keys=[(g, REWARD) for g in groups],
             out_keys=[(g, EPISODE_REWARD) for g in groups],
         )
     ]
@@ -281,7 +186,7 @@ def with_training_transforms(cfg: TrainConfig, base: EnvBase) -> TransformedEnv:
             PotentialShaping(game_potential(game), groups, cfg.algo.gamma, cfg.shaping.scale)
         )
     if cfg.algo.normalize_observations:
-        keys = [(g, key) for g in groups for key in ("observation", "manager_observation")]
+        keys = [(g, key) for g in groups for key in (OBSERVATION, MANAGER_OBSERVATION)]
         # Statistics are shared by the worlds (reduce_batch_dims) and kept per agent slot;
         # with mirrored observations and a shared policy both teams' slots converge alike.
         transforms.append(VecNormV2(in_keys=keys, decay=0.99999, reduce_batch_dims=True))
@@ -300,10 +205,11 @@ def group_names(env: EnvBase) -> list[str]:
 def network_config(cfg: TrainConfig) -> NetworkConfig:
     """The network shape of ``cfg.model`` (the same for every group).
 
-    Examples:
-        >>> from rlhc.config import TrainConfig
-        >>> network_config(TrainConfig()).shared_trunk
-        False
+        Examples:
+            >>> from rlhc.config import TrainConfig
+    from rlhc.errors import ConfigError
+            >>> network_config(TrainConfig()).shared_trunk
+            False
     """
     return NetworkConfig(
         num_layers=cfg.model.num_layers,

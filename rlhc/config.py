@@ -2,8 +2,8 @@
 
 Every yaml file in ``conf/`` names one of these schemas in its defaults list, so a
 misspelt key or a value of the wrong type fails before anything is built. The
-defaults here are the paper's tennis column of Table 3 (``conf/table3/tennis.yaml``, which the
-configs compose); ``conf/table3/soccer.yaml`` holds the soccer column.
+paper's Table 3 values live only in ``conf/table3/<env>.yaml`` (the schemas mark them
+``MISSING``); the defaults here are the settings the paper does not give.
 """
 
 from __future__ import annotations
@@ -14,9 +14,14 @@ from typing import Any
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING
 
-from rlhc.envs.config import SoccerEnvConfig, TennisEnvConfig
 from rlhc.league import LeagueConfig
+from rlhc.modules.config import NetworkConfig
 from rlhc.shaping import ShapingConfig
+
+
+def measured_in(unit: str, default: Any = MISSING) -> Any:
+    """A schema field with its unit (shown in the README's generated table)."""
+    return field(default=default, metadata={"unit": unit})
 
 
 @dataclass
@@ -33,12 +38,15 @@ class CriticConfig:
 
     fusion: str = "max"
     weight: float = 0.5
-    manager_interval: int = 1
+    manager_interval: int = measured_in("decisions", 1)
 
 
 @dataclass
 class PPOConfig:
     """PPO hyperparameters (paper Table 3, in the units of the trainer it ran on).
+
+    Table 3's values live in ``conf/table3/<env>.yaml`` only (``MISSING`` here); the
+    settings the paper does not give keep their defaults here.
 
     The paper's trainer is ML-Agents 0.5, whose units these are: a *world-decision*
     (a "frame" in ``metrics.csv``) is one decision of every agent of one court or pitch;
@@ -74,60 +82,46 @@ class PPOConfig:
             (the paper's ``normalize``).
     """
 
-    max_steps: int = 3_600_000
-    buffer_size: int = 10_240
-    time_horizon: int = 64
-    batch_size: int = 1024
-    epochs: int = 3
-    lr: float = 3e-4
-    anneal_lr: bool = True
-    anneal_entropy_coef: bool = True
-    anneal_clip_epsilon: bool = True
-    gamma: float = 0.99
-    lmbda: float = 0.95
-    clip_epsilon: float = 0.2
-    entropy_coef: float = 0.005
+    max_steps: int = measured_in("world-decisions", MISSING)
+    buffer_size: int = measured_in("agent-experiences per group", MISSING)
+    time_horizon: int = measured_in("decisions", MISSING)
+    batch_size: int = measured_in("agent-experiences per group", MISSING)
+    epochs: int = measured_in("passes per update", MISSING)
+    lr: float = MISSING
+    anneal_lr: bool = MISSING
+    anneal_entropy_coef: bool = MISSING
+    anneal_clip_epsilon: bool = MISSING
+    gamma: float = measured_in("per decision", MISSING)
+    lmbda: float = MISSING
+    clip_epsilon: float = MISSING
+    entropy_coef: float = MISSING
     critic_coef: float = 0.5
     max_grad_norm: float = 0.5
     normalize_advantage: bool = True
-    normalize_observations: bool = True
+    normalize_observations: bool = MISSING
 
 
 @dataclass
-class ModelConfig:
-    """Actor and critic networks (multi-layer perceptrons, one per group).
+class ModelConfig(NetworkConfig):
+    """The ``model`` section: the network schema plus the recurrent option's settings.
+
+    The network settings (``num_layers``, ``hidden_size``, ``activation``,
+    ``initial_action_scale``, ``shared_trunk``) and their checks are
+    :class:`~rlhc.modules.NetworkConfig`'s; the Table 3 values come from
+    ``conf/table3/<env>.yaml`` only.
 
     Attributes:
         kind: ``mlp``. (``lstm`` is recognised and refused with an explanation.)
-        num_layers: hidden layers.
-        hidden_size: units per hidden layer.
-        activation: ``tanh``, ``relu``, ``elu``, ``gelu`` or ``silu`` (swish, ML-Agents 0.5).
-        initial_action_scale: continuous actions: the policy's scale (before the tanh
-            squashing) when the network's scale output is 0, i.e. at initialisation.
-            0.5 by measurement (see the README): the shot window is narrow, and a
-            scale of 1 buries the policy's aim in noise.
-        shared_trunk: discrete actions (soccer) only: the actor and the worker critic
-            of a group share their hidden layers, with a policy head and a value head
-            on top (ML-Agents 0.5's discrete PPO network, which the paper's soccer
-            brains used); the manager critic stays a separate network. Tennis
-            (continuous actions) refuses it. Default false: every preset and result
-            of this project used separate networks, and sharing saves no compute
-            here (each of TorchRL's two operators runs the trunk: the same FLOP per
-            world-decision, and the same update time within noise, by measurement);
-            what it changes is learning (the value loss also shapes the policy's
-            features), which is untested at full length.
         memory_size: LSTM memory size (recurrent option, Table 3).
         sequence_length: LSTM training sequence length (recurrent option, Table 3).
     """
 
+    num_layers: int = MISSING
+    hidden_size: int = MISSING
+    activation: str = MISSING
     kind: str = "mlp"
-    num_layers: int = 2
-    hidden_size: int = 128
-    activation: str = "silu"
-    initial_action_scale: float = 0.5
-    shared_trunk: bool = False
-    memory_size: int = 256
-    sequence_length: int = 64
+    memory_size: int = MISSING
+    sequence_length: int = MISSING
 
 
 @dataclass
@@ -145,7 +139,7 @@ class LoggerConfig:
     """
 
     backends: list[str] = field(default_factory=lambda: ["csv", "tensorboard"])
-    summary_freq: int = 18_000
+    summary_freq: int = measured_in("world-decisions", MISSING)
     progress: bool | None = None
     wandb_project: str = "rlhc"
     wandb_mode: str = "auto"
@@ -188,21 +182,27 @@ class TrainConfig:
     league: LeagueConfig = field(default_factory=LeagueConfig)
     shaping: ShapingConfig = field(default_factory=ShapingConfig)
     seed: int = 0
-    checkpoint_freq: int = 500_000
+    checkpoint_freq: int = measured_in("world-decisions", MISSING)
     resume: str | None = None
     device: str = "cpu"
     threads: int = 1
-    eval_freq: int = 0
+    eval_freq: int = measured_in("world-decisions", 0)
     eval_matches: int = 20
     parallel: str = "data"
 
 
 def register_configs() -> None:
-    """Register the schemas so that yaml files can name them in their defaults lists."""
+    """Register the schemas so that yaml files can name them in their defaults lists.
+
+    Each registered game's schema is ``<game>_schema`` in the ``env`` group
+    (``conf/env/<game>.yaml`` names it), from :mod:`rlhc.envs.registry`.
+    """
+    from rlhc.envs.registry import game_spec, games
+
     cs = ConfigStore.instance()
     cs.store(name="train_schema", node=TrainConfig)
-    cs.store(group="env", name="tennis_schema", node=TennisEnvConfig)
-    cs.store(group="env", name="soccer_schema", node=SoccerEnvConfig)
+    for name in games():
+        cs.store(group="env", name=f"{name}_schema", node=game_spec(name).env_config)
     cs.store(group="critic", name="critic_schema", node=CriticConfig)
     cs.store(group="model", name="model_schema", node=ModelConfig)
     cs.store(group="logger", name="logger_schema", node=LoggerConfig)

@@ -42,9 +42,8 @@ import torch
 import torch.distributed as dist
 from tensordict import TensorDictBase
 
-from rlhc.builders import ConfigError
+from rlhc.validation import backend, check_parallel
 
-MODES = ("data", "pipeline")
 #: Rank 0 of a pipeline updates; rank 1 collects.
 LEARNER_RANK = 0
 COLLECTOR_RANK = 1
@@ -115,50 +114,14 @@ def launched_rank() -> int:
     return int(os.environ.get("RANK", "0"))
 
 
-def backend(device: str) -> str:
-    """The collective backend for ``device``: NCCL for CUDA, gloo otherwise."""
-    return "nccl" if torch.device(device).type == "cuda" else "gloo"
-
-
-def check(mode: str, size: int, device: str, league_active: bool) -> None:
-    """Refuse, before anything is built, a way of sharing the run that cannot work.
-
-    Raises:
-        ConfigError: an unknown ``parallel``, a pipeline of other than 2 processes or
-            with a league, or no collective backend for ``device`` in this torch build.
-    """
-    if mode not in MODES:
-        raise ConfigError(f"parallel={mode!r}; allowed: {', '.join(MODES)}")
-    if size <= 1:
-        return
-    if mode == "pipeline" and size != 2:
-        raise ConfigError(
-            f"parallel=pipeline with {size} processes (torchrun --nproc_per_node); "
-            "allowed: exactly 2 (one learner, one collector), or parallel=data for any number"
-        )
-    if mode == "pipeline" and league_active:
-        raise ConfigError(
-            "parallel=pipeline with league.active (league=mixed): the league's opponents "
-            "live on the collecting process; allowed: league=self_play, or parallel=data"
-        )
-    name = backend(device)
-    available = {"gloo": dist.is_gloo_available, "nccl": dist.is_nccl_available}
-    if not dist.is_available() or not available[name]():
-        raise ConfigError(
-            f"device={device!r} with {size} processes needs torch.distributed's {name} "
-            "backend, which this torch build does not have; allowed: one process, or a "
-            f"torch build with {name}"
-        )
-
-
 def setup(mode: str, device: str, league_active: bool) -> Processes:
     """Join the processes ``torchrun`` started (a no-op for one process).
 
     Raises:
-        ConfigError: see :func:`check`.
+        ConfigError: see :func:`rlhc.validation.check_parallel`.
     """
     size = launched_size()
-    check(mode, size, device, league_active)
+    check_parallel(mode, size, device, league_active)
     if size <= 1:
         return Processes(mode=mode)
     if not dist.is_initialized():

@@ -28,20 +28,18 @@ remainder), in the order self, snapshot, scripted, random.
 from __future__ import annotations
 
 import copy
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
+from rlhc.envs.keys import ACTION, OBSERVATION, STEP_COUNT, TEAM
 from rlhc.evaluation.elo import INITIAL_RATING, K_FACTOR, elo_update, expected_score
-
-if TYPE_CHECKING:
-    from rlhc.evaluation.opponents import TeamPolicy
+from rlhc.evaluation.teams import RandomPolicy, ScriptedPolicy, TeamPolicy
 
 KINDS = ("self", "snapshot", "scripted", "random")
 SAMPLING = ("uniform", "elo")
@@ -90,35 +88,6 @@ class LeagueConfig:
     def active(self) -> bool:
         """Whether any world plays someone other than the learner itself."""
         return self.self_play < 1.0
-
-
-def validate_league(cfg: LeagueConfig) -> list[str]:
-    """Problems with ``cfg``, each naming the key, the value and what is allowed."""
-    problems = []
-    names = {
-        "self": "self_play",
-        "snapshot": "snapshot",
-        "scripted": "scripted",
-        "random": "random",
-    }
-    for kind, share in cfg.shares.items():
-        if not (math.isfinite(share) and 0.0 <= share <= 1.0):
-            problems.append(f"league.{names[kind]}={share}; allowed: a share in [0, 1]")
-    total = sum(cfg.shares.values())
-    if not math.isclose(total, 1.0, abs_tol=1e-6):
-        problems.append(
-            f"league shares sum to {total:g} (self_play={cfg.self_play}, snapshot="
-            f"{cfg.snapshot}, scripted={cfg.scripted}, random={cfg.random}); allowed: a sum of 1"
-        )
-    if cfg.pool_size < 1:
-        problems.append(f"league.pool_size={cfg.pool_size}; allowed: an integer >= 1")
-    if cfg.snapshot_interval < 1:
-        problems.append(
-            f"league.snapshot_interval={cfg.snapshot_interval}; allowed: an integer >= 1"
-        )
-    if cfg.sampling not in SAMPLING:
-        problems.append(f"league.sampling={cfg.sampling!r}; allowed: {', '.join(SAMPLING)}")
-    return problems
 
 
 def allocate_worlds(shares: Mapping[str, float], num_worlds: int) -> np.ndarray:
@@ -292,14 +261,12 @@ class LeaguePolicy(TensorDictModuleBase):
     ) -> None:
         # Imported here: the opponents' module reads checkpoints through the builders,
         # which read this module's config schema.
-        from rlhc.evaluation.opponents import RandomPolicy, ScriptedPolicy
-
         super().__init__()
         self.learner = learner
         self.league = league
         self.base_env = env.base_env
         self.groups = [spec.name for spec in self.base_env.game.groups]
-        self.in_keys = list(learner.in_keys) + [(g, "team") for g in self.groups] + ["step_count"]
+        self.in_keys = list(learner.in_keys) + [(g, TEAM) for g in self.groups] + [STEP_COUNT]
         self.out_keys = (
             list(learner.out_keys) + [(g, LEARNER) for g in self.groups] + [OPPONENT, LEARNER_TEAM]
         )
@@ -310,7 +277,7 @@ class LeaguePolicy(TensorDictModuleBase):
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         league = self.league
-        starting = tensordict["step_count"].view(-1).cpu().numpy() == 0
+        starting = tensordict[STEP_COUNT].view(-1).cpu().numpy() == 0
         snapshot_kind = KINDS.index("snapshot")
         league.draw(np.flatnonzero(starting & (league.kinds == snapshot_kind)))
         tensordict = self.learner(tensordict)
@@ -319,14 +286,14 @@ class LeaguePolicy(TensorDictModuleBase):
         learner_team = torch.as_tensor(league.learner_team, dtype=torch.int64)
         actions = self._opponent_actions(tensordict, opponent)
         for group in self.groups:
-            team = tensordict[group, "team"]  # [N, n_g, 1]
+            team = tensordict[group, TEAM]  # [N, n_g, 1]
             # The learner chose the action unless an opponent plays this agent's team.
             is_opponent = (opponent != SELF_ID).view(n, 1, 1) & (team != learner_team.view(n, 1, 1))
             if group in actions:
-                action = tensordict[group, "action"]
+                action = tensordict[group, ACTION]
                 mask = is_opponent.view(*is_opponent.shape[:2], *([1] * (action.dim() - 2)))
                 replaced = torch.where(mask, actions[group].to(action.dtype), action)
-                tensordict.set((group, "action"), replaced)
+                tensordict.set((group, ACTION), replaced)
             tensordict.set((group, LEARNER), ~is_opponent)
         tensordict.set(OPPONENT, opponent.view(n, 1))
         tensordict.set(LEARNER_TEAM, learner_team.view(n, 1))
@@ -339,7 +306,7 @@ class LeaguePolicy(TensorDictModuleBase):
         present = sorted(set(opponent.tolist()) - {SELF_ID})
         if not present:
             return {}
-        merged = {g: tensordict[g, "action"].clone() for g in self.groups}
+        merged = {g: tensordict[g, ACTION].clone() for g in self.groups}
         with torch.no_grad():
             for opponent_id in present:
                 if opponent_id == SCRIPTED_ID:
@@ -357,7 +324,7 @@ class LeaguePolicy(TensorDictModuleBase):
         """The game's current, unnormalised observations (what the scripted team reads)."""
         raw = tensordict.empty()
         for group, observed in self.base_env.game.observe().items():
-            raw.set((group, "observation"), torch.from_numpy(observed.observation))
+            raw.set((group, OBSERVATION), torch.from_numpy(observed.observation))
         return raw
 
     def _snapshot_actions(
@@ -370,5 +337,5 @@ class LeaguePolicy(TensorDictModuleBase):
                 actor.load_state_dict(snapshot.actors[group])
                 self._loaded[group] = snapshot_id
             inputs = tensordict.select(*actor.in_keys).clone(recurse=False)
-            out[group] = actor(inputs)[group, "action"]
+            out[group] = actor(inputs)[group, ACTION]
         return out

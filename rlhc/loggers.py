@@ -24,24 +24,12 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from rlhc.builders import ConfigError
 from rlhc.config import LoggerConfig
+from rlhc.errors import ConfigError
+from rlhc.validation import WANDB_MODES, check_logger
 
 METRICS_FILE = "metrics.csv"
 TENSORBOARD_DIR = "tb"
-BACKENDS = ("csv", "tensorboard", "wandb")
-WANDB_MODES = ("auto", "online", "offline", "disabled")
-
-
-def validate_logger(cfg: LoggerConfig) -> None:
-    """Raise :class:`~rlhc.builders.ConfigError` naming an unknown backend or wandb mode."""
-    unknown = [b for b in cfg.backends if b not in BACKENDS]
-    if unknown:
-        raise ConfigError(f"logger.backends has {unknown}; allowed: {', '.join(BACKENDS)}")
-    if cfg.wandb_mode not in WANDB_MODES:
-        raise ConfigError(
-            f"logger.wandb_mode={cfg.wandb_mode!r}; allowed: {', '.join(WANDB_MODES)}"
-        )
 
 
 def wandb_mode(requested: str) -> str:
@@ -143,7 +131,7 @@ class MetricLogger:
         config: Mapping[str, Any] | None = None,
         resume_step: int | None = None,
     ) -> None:
-        validate_logger(cfg)
+        check_logger(cfg)
         run_dir.mkdir(parents=True, exist_ok=True)
         self.csv = CSVMetrics(run_dir / METRICS_FILE, resume_step)
         self.tensorboard: TensorBoardMetrics | None = None

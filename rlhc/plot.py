@@ -21,14 +21,14 @@ import sys
 from collections.abc import Sequence
 
 from rlhc.evaluation.stats import t_interval
-from rlhc.plotting import (
+from rlhc.plotting import plot_runs
+from rlhc.runs import (
     METRICS_FILE,
     PAPER_METRICS,
     final_values,
     group_runs,
     load_runs,
     panel_metrics,
-    plot_runs,
     split_run_paths,
 )
 

@@ -12,7 +12,7 @@ How it ends, and its exit code:
 |---|---|---|
 | trained to ``algo.max_steps`` | ``results in <run dir>`` | 0 |
 | ``resume=`` of a run that reached ``algo.max_steps`` | that it is finished; nothing is written | 0 |
-| a user error: a bad value (:class:`~rlhc.builders.ConfigError`), a resume path that holds no checkpoint or whose settings differ (:class:`~rlhc.checkpoint.ResumeError`), a Hydra override or composition error | ``rlhc.run: error: <one line>``; no run directory is left behind | 2 |
+| a user error: a bad value (:class:`~rlhc.errors.ConfigError`), a resume path that holds no checkpoint or whose settings differ (:class:`~rlhc.checkpoint.ResumeError`), a Hydra override or composition error | ``rlhc.run: error: <one line>``; no run directory is left behind | 2 |
 | SIGINT / SIGTERM during training | where the checkpoint is and the command that resumes it | 130 / 143 |
 
 ``HYDRA_FULL_ERROR=1`` shows the traceback of a user error instead. Any other error is
@@ -43,13 +43,14 @@ from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf, open_dict, read_write
 from omegaconf.errors import OmegaConfBaseException
 
-from rlhc.builders import ConfigError, Layout, validate
+from rlhc.builders import Layout
 from rlhc.checkpoint import ResumeError, load_checkpoint, run_dir_of
 from rlhc.config import TrainConfig, register_configs
-from rlhc.distributed import broadcast_object, check, launched_rank, launched_size, setup, shutdown
+from rlhc.distributed import broadcast_object, launched_rank, launched_size, setup, shutdown
+from rlhc.errors import ConfigError
 from rlhc.interrupt import TrainingInterrupted
-from rlhc.loggers import validate_logger
 from rlhc.trainer import Trainer, check_resumable
+from rlhc.validation import validate
 
 PROGRAM = "rlhc.run"
 #: An absolute path: Hydra reads a relative one as a package when this file runs as the
@@ -104,11 +105,9 @@ def preflight(cfg: TrainConfig) -> dict[str, Any] | None:
         ResumeError: ``cfg.resume`` holds no loadable checkpoint, or one trained with
             settings a resume cannot change.
     """
-    validate(cfg)
     size = launched_size()
-    check(cfg.parallel, size, cfg.device, cfg.league.active)
+    validate(cfg, size)
     Layout.from_config(cfg, size if cfg.parallel == "data" else 1)
-    validate_logger(cfg.logger)
     if not cfg.resume:
         return None
     try:

@@ -24,6 +24,8 @@ import torch
 from tensordict import TensorDictBase
 from torchrl.envs import Transform
 
+from rlhc.envs.keys import REWARD, TERMINATED
+
 Potential = Callable[[], dict[str, np.ndarray]]
 
 
@@ -63,7 +65,7 @@ class PotentialShaping(Transform):
     """
 
     def __init__(self, potential: Potential, groups: list[str], gamma: float, scale: float):
-        keys = [(g, "reward") for g in groups]
+        keys = [(g, REWARD) for g in groups]
         super().__init__(in_keys=keys, out_keys=keys)
         self.potential = potential
         self.groups = groups
@@ -84,10 +86,10 @@ class PotentialShaping(Transform):
     def _step(self, tensordict: TensorDictBase, next_tensordict: TensorDictBase) -> TensorDictBase:
         after = self._current()
         for group in self.groups:
-            terminated = next_tensordict[group, "terminated"]
+            terminated = next_tensordict[group, TERMINATED]
             following = torch.where(terminated, torch.zeros_like(after[group]), after[group])
             shaping = self.scale * (self.gamma * following - self._last[group])
-            reward = next_tensordict[group, "reward"]
-            next_tensordict.set((group, "reward"), reward + shaping.to(reward.dtype))
+            reward = next_tensordict[group, REWARD]
+            next_tensordict.set((group, REWARD), reward + shaping.to(reward.dtype))
         self._last = after
         return next_tensordict

@@ -40,13 +40,11 @@ from tqdm import tqdm
 from tqdm.contrib.logging import logging_redirect_tqdm
 
 from rlhc.builders import (
-    EPISODE_REWARD,
     Layout,
     group_names,
     make_agents,
     make_training_env,
     network_config,
-    validate,
 )
 from rlhc.checkpoint import (
     CHECKPOINT_DIR,
@@ -74,11 +72,27 @@ from rlhc.distributed import (
 )
 from rlhc.envs import make_env
 from rlhc.envs.base import BatchedGame
+from rlhc.envs.keys import (
+    ACTION_LOG_PROB,
+    ADVANTAGE,
+    DONE,
+    EPISODE_REWARD,
+    INFO,
+    MANAGER_SELECTED,
+    MANAGER_VALUE,
+    NEXT,
+    SCORING_TEAM,
+    STATE_VALUE,
+    STEP_COUNT,
+    TERMINATED,
+    WORKER_VALUE,
+)
 from rlhc.interrupt import StopSignals, TrainingInterrupted
 from rlhc.league import LEARNER, LEARNER_TEAM, OPPONENT, League, LeaguePolicy
 from rlhc.loggers import MetricLogger, ProgressLines
 from rlhc.modules import make_actor
 from rlhc.objectives import LOSS_KEYS
+from rlhc.validation import validate
 
 log = logging.getLogger(__name__)
 
@@ -138,7 +152,7 @@ def learner_weight(data: TensorDictBase, group: str) -> torch.Tensor:
     """
     learner = data.get((group, LEARNER), None)
     if learner is None:
-        return torch.ones(data[group, "action_log_prob"].shape[: data.ndim + 1])
+        return torch.ones(data[group, ACTION_LOG_PROB].shape[: data.ndim + 1])
     return learner.reshape(*learner.shape[: data.ndim + 1]).float()
 
 
@@ -173,14 +187,14 @@ def standardise_advantage(
     ``reduce`` sums a partial statistic over the processes that hold the rest of the
     minibatch (data-parallel: :func:`~rlhc.distributed.all_reduce_sum`).
     """
-    advantage = data[group, "advantage"]
+    advantage = data[group, ADVANTAGE]
     shaped = advantage.reshape(weight.shape)
     sums = reduce(torch.stack([weight.sum(dim=0), (shaped * weight).sum(dim=0)]))
     count = sums[0].clamp_min(1.0)
     mean = sums[1] / count
     var = reduce((((shaped - mean) ** 2) * weight).sum(dim=0)) / count
     standard = (shaped - mean) / (var.sqrt() + 1e-8)
-    data.set((group, "advantage"), standard.reshape(advantage.shape))
+    data.set((group, ADVANTAGE), standard.reshape(advantage.shape))
 
 
 def config_container(cfg: TrainConfig) -> dict[str, Any]:
@@ -222,9 +236,9 @@ def cut_trajectories(batch: TensorDictBase, groups: list[str], horizon: int) -> 
     cut = torch.zeros(steps, dtype=torch.bool)
     cut[horizon - 1 :: horizon] = True
     for group in groups:
-        done = batch["next", group, "done"]
+        done = batch[NEXT, group, DONE]
         shape = (1, steps) + (1,) * (done.dim() - 2)
-        batch["next", group, "done"] = done | cut.view(shape)
+        batch[NEXT, group, DONE] = done | cut.view(shape)
 
 
 class Trainer:
@@ -253,10 +267,10 @@ class Trainer:
         env: TransformedEnv | None = None,
         processes: Processes | None = None,
     ) -> None:
-        validate(cfg)
+        self.processes = processes if processes is not None else Processes(mode=cfg.parallel)
+        validate(cfg, self.processes.size)
         self.cfg = cfg
         self.run_dir = run_dir
-        self.processes = processes if processes is not None else Processes(mode=cfg.parallel)
         self.layout = Layout.from_config(cfg, self.processes.shards)
         if cfg.threads > 0:
             torch.set_num_threads(cfg.threads)
@@ -496,7 +510,7 @@ class Trainer:
         with torch.no_grad():
             for group, loss in self.losses.items():
                 loss.value_estimator(batch)
-                for key in ("state_value", "worker_value", "manager_value", "manager_selected"):
+                for key in (STATE_VALUE, WORKER_VALUE, MANAGER_VALUE, MANAGER_SELECTED):
                     stats[f"{group}/{key}"].append(batch[group, key].float().mean().item())
         flat = batch.reshape(-1)
         # Data-parallel: this process's share of every minibatch, from its own worlds.
@@ -556,12 +570,12 @@ class Trainer:
     def _record_league(self, batch: TensorDictBase) -> None:
         """Feed the results of the episodes that ended against league opponents to Elo."""
         assert self.league is not None
-        done = batch["next", "done"].squeeze(-1)
+        done = batch[NEXT, DONE].squeeze(-1)
         if not done.any() and not self.processes.data_parallel:
             return
         opponent = batch[OPPONENT].squeeze(-1)[done].numpy()
         learner_team = batch[LEARNER_TEAM].squeeze(-1)[done].numpy()
-        scoring = batch["next", "scoring_team"].squeeze(-1)[done].numpy()
+        scoring = batch[NEXT, SCORING_TEAM].squeeze(-1)[done].numpy()
         scores = np.where(scoring < 0, 0.5, (scoring == learner_team).astype(float))
         if self.processes.data_parallel:
             # Every process records every result: the ratings stay the same everywhere.
@@ -575,21 +589,21 @@ class Trainer:
         self, batch: TensorDictBase, episodes: dict[str, list[torch.Tensor]]
     ) -> None:
         """Returns and lengths of the episodes that ended in ``batch``; game events."""
-        done = batch["next", "done"].squeeze(-1)
-        if ("next", "info") in batch.keys(include_nested=True):
-            for key, value in batch["next", "info"].items():
+        done = batch[NEXT, DONE].squeeze(-1)
+        if (NEXT, INFO) in batch.keys(include_nested=True):
+            for key, value in batch[NEXT, INFO].items():
                 # Events per episode: summed over the window, divided by its episodes.
                 per_world = value.reshape(*batch.shape, -1).sum(dim=(0, 1))
                 episodes[f"events/{key}"].append(per_world)
         if not done.any():
             return
-        episodes["episode_length"].append(batch["next", "step_count"][done].float().flatten())
+        episodes["episode_length"].append(batch[NEXT, STEP_COUNT][done].float().flatten())
         # The share of episodes the game ended (a point, a goal) before the time cap.
-        terminated = batch["next", "terminated"].squeeze(-1)[done]
+        terminated = batch[NEXT, TERMINATED].squeeze(-1)[done]
         episodes["episode_terminated"].append(terminated.float().flatten())
         for group in self.groups:
             # [episodes, n_g, 1] → one number per episode: the group's mean return.
-            returns = batch["next", group, EPISODE_REWARD][done].float()
+            returns = batch[NEXT, group, EPISODE_REWARD][done].float()
             episodes[f"{group}/cumulative_reward"].append(returns.mean(dim=(-2, -1)))
 
     def _summarise(

@@ -21,8 +21,10 @@ from configs import ROOT, load_smoke
 
 from rlhc.builders import ConfigError, Layout
 from rlhc.checkpoint import CHECKPOINT_DIR
-from rlhc.distributed import MODES, Processes, check
+from rlhc.distributed import Processes
 from rlhc.run import preflight
+from rlhc.validation import PARALLEL_MODES as MODES
+from rlhc.validation import check_parallel as check
 
 TORCHRUN = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2"]
 

@@ -11,8 +11,8 @@ from configs import load_smoke as load
 from hydra.errors import ConfigCompositionException
 from torchrl.collectors import Collector
 
-from rlhc.builders import ConfigError, validate
 from rlhc.checkpoint import load_checkpoint
+from rlhc.errors import ConfigError
 from rlhc.evaluation.elo import expected_score
 from rlhc.league import (
     KINDS,
@@ -26,6 +26,7 @@ from rlhc.league import (
     allocate_worlds,
 )
 from rlhc.trainer import Trainer
+from rlhc.validation import validate
 
 
 # --- shares ---------------------------------------------------------------------------

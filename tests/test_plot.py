@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from rlhc import plot
-from rlhc.plotting import (
+from rlhc.runs import (
     aggregate,
     ema_smooth,
     final_values,

@@ -160,3 +160,22 @@ def test_the_quick_start_commands_run_as_written(tmp_path: Path) -> None:
     assert list((tmp_path / "outputs" / "evaluate" / "soccer").rglob("elo.csv"))
     run(next(names), time=sweep.name)
     assert (tmp_path / "curves.png").stat().st_size > 0
+
+
+def test_the_configuration_table_is_the_generated_one() -> None:
+    """README's table is what ``python -m rlhc.config_table`` prints (no drift)."""
+    from rlhc.config_table import README, readme_copy, table
+
+    assert readme_copy(README.read_text()) == table(), (
+        "README.md's configuration table is stale: run python -m rlhc.config_table --write"
+    )
+
+
+def test_every_setting_has_a_meaning_in_the_table() -> None:
+    from rlhc.config_table import table
+
+    rows = [line for line in table().splitlines()[2:]]
+    assert len(rows) > 40
+    for row in rows:
+        meaning = row.rstrip(" |").rsplit("|", 1)[-1].strip()
+        assert meaning, f"no Attributes entry documents {row.split('|')[1].strip()}"

@@ -35,7 +35,7 @@ from benchmarks.reporting.summary import (
 )
 from rlhc.evaluation.matches import MatchResult
 from rlhc.evaluation.stats import t_interval, wilson_interval
-from rlhc.plotting import ema_smooth
+from rlhc.runs import ema_smooth
 
 TOY = Study("toy", {"ppo": ("env=tennis", "critic=ppo"), "hierarchical": ("env=tennis",)}, 3, 100)
 STUDY = {"toy": TOY}

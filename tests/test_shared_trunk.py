@@ -23,14 +23,14 @@ from rlhc.builders import ConfigError, make_agents, make_training_env
 from rlhc.checkpoint import load_checkpoint
 from rlhc.envs import make_env
 from rlhc.evaluation.policies import restore_policy
-from rlhc.modules import EnvSpecs, NetworkConfig, make_actor, make_actor_value, make_worker_critic
-from rlhc.modules.flops import (
+from rlhc.flops import (
     FLOP_PER_MAC,
     FORWARD_BACKWARD,
     linear_macs,
     network_flops,
     training_flops,
 )
+from rlhc.modules import EnvSpecs, NetworkConfig, make_actor, make_actor_value, make_worker_critic
 from rlhc.objectives import LOSS_KEYS, HierarchicalPPOLoss
 from rlhc.trainer import Trainer
 

@@ -15,11 +15,11 @@ from configs import load_smoke as load
 from configs import options
 
 from rlhc.checkpoint import load_checkpoint
-from rlhc.envs import GAMES
+from rlhc.envs import game_spec, games
 from rlhc.trainer import Trainer
 
 CRITICS = options("critic")
-ENVS = sorted(GAMES)
+ENVS = games()
 TIMING = ("env_steps_per_s", "train_frames_per_s", "wall_time")
 
 
@@ -38,7 +38,7 @@ def test_two_iterations_write_logs_checkpoint_and_finite_metrics(
 
     rows = read_metrics(tmp_path)
     assert [row["step"] for row in rows] == [256.0, 512.0]
-    groups = {"tennis": ["racket"], "soccer": ["striker", "goalie"]}[env]
+    groups = game_spec(env).groups
     for row in rows:
         for group in groups:
             for metric in ("entropy", "state_value", "loss_objective", "kl_approx"):

@@ -9,7 +9,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from rlhc.plotting import Run, aggregate, plot_runs
+from rlhc.plotting import plot_runs
+from rlhc.runs import Run, aggregate
 
 from .runs import StudyRun
 from .study import GROUP_BY, SMOOTHING

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from rlhc.plotting import METRICS_FILE, Run, read_metrics
+from rlhc.runs import METRICS_FILE, Run, read_metrics
 
 from .figures import draw_learning_curves
 

@@ -1,7 +1,9 @@
 """Hydra schemas of the ``env`` config group (one dataclass per game).
 
 Fields left at ``None`` fall back to the game's own default, so the game module
-stays the single source of truth for its rules.
+stays the single source of truth for its rules. Each game names its schema in its
+registry entry (:attr:`GameSpec.env_config <rlhc.envs.registry.GameSpec>`), which
+:func:`rlhc.config.register_configs` stores as ``<game>_schema``.
 """
 
 from __future__ import annotations
@@ -17,7 +19,8 @@ class EnvConfig:
     """Options common to every game.
 
     Attributes:
-        name: the game, ``"tennis"`` or ``"soccer"``.
+        name: the game, a registered name (:func:`~rlhc.envs.registry.games`); each
+            subclass defaults it to its game's.
         num_envs: worlds simulated by the one env object, a divisor of the world-decisions
             of an update; ``None``: the smallest divisor that keeps every world's share
             of an update within ``algo.time_horizon`` decisions.

@@ -26,6 +26,7 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from rlhc.envs.base import BatchedGame, ContinuousAction, GroupSpec
+from rlhc.envs.keys import MANAGER_OBSERVATION, SCORING_TEAM, TEAM
 
 
 class BatchedGameParallelEnv(ParallelEnv):
@@ -186,8 +187,8 @@ class BatchedGameParallelEnv(ParallelEnv):
             seen = group_observations[spec.name]
             observations[agent] = seen.observation[0, i].copy()
             infos[agent] = {
-                "manager_observation": seen.manager_observation[0, i].copy(),
-                "team": spec.teams[i],
-                "scoring_team": scoring_team,
+                MANAGER_OBSERVATION: seen.manager_observation[0, i].copy(),
+                TEAM: spec.teams[i],
+                SCORING_TEAM: scoring_team,
             }
         return observations, infos

@@ -1,7 +1,8 @@
 """A TorchRL ``EnvBase`` over any :class:`~rlhc.envs.base.BatchedGame` (the training path).
 
 The env has ``batch_size=[N]`` (one entry per simulated world) and follows the
-TensorDict contract of the design; for each group ``g`` with ``n_g`` agents:
+TensorDict contract below (the key names are defined in :mod:`rlhc.envs.keys`); for
+each group ``g`` with ``n_g`` agents:
 
 | key | spec | shape |
 |---|---|---|
@@ -33,17 +34,21 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
 from rlhc.envs.base import BatchedGame, ContinuousAction, DiscreteAction
-
-#: TensorDict keys (per group unless rooted).
-OBSERVATION = "observation"
-MANAGER_OBSERVATION = "manager_observation"
-TEAM = "team"
-ACTION = "action"
-REWARD = "reward"
-STEP_COUNT = "step_count"
-SCORING_TEAM = "scoring_team"
-INFO = "info"
-DONE_KEYS = ("done", "terminated", "truncated")
+from rlhc.envs.keys import (
+    ACTION,
+    DONE,
+    DONE_KEYS,
+    INFO,
+    MANAGER_OBSERVATION,
+    OBSERVATION,
+    RESET,
+    REWARD,
+    SCORING_TEAM,
+    STEP_COUNT,
+    TEAM,
+    TERMINATED,
+    TRUNCATED,
+)
 
 
 class BatchedGameEnv(EnvBase):
@@ -129,8 +134,8 @@ class BatchedGameEnv(EnvBase):
     # --- EnvBase hooks -----------------------------------------------------------------
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: object) -> TensorDictBase:
         mask = None
-        if tensordict is not None and "_reset" in tensordict:
-            mask = tensordict.get("_reset").reshape(self.game.num_worlds).cpu().numpy()
+        if tensordict is not None and RESET in tensordict:
+            mask = tensordict.get(RESET).reshape(self.game.num_worlds).cpu().numpy()
         self.game.reset(mask)
         n = self.game.num_worlds
         no = torch.zeros(n, dtype=torch.bool)
@@ -169,7 +174,7 @@ class BatchedGameEnv(EnvBase):
         terminated = terminated.view(n, 1)
         truncated = truncated.view(n, 1)
         done = terminated | truncated
-        flags = {"done": done, "terminated": terminated, "truncated": truncated}
+        flags = {DONE: done, TERMINATED: terminated, TRUNCATED: truncated}
         out: dict[str, object] = dict(flags)
         observations = self.game.observe()
         for spec in self.game.groups:

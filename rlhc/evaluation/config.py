@@ -9,9 +9,10 @@ from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING
 
 from rlhc.config import register_configs
+from rlhc.envs.keys import RANDOM, SCRIPTED
+from rlhc.envs.registry import games
 
 MODES = ("match", "elo")
-ENVS = ("tennis", "soccer")
 
 
 @dataclass
@@ -40,7 +41,8 @@ class EvaluateConfig:
 
     Attributes:
         mode: ``match``: ``home`` against ``away``; ``elo``: every pair of ``players``.
-        env: the game (group ``env``, as in ``rlhc.run``): ``env.name``, ``env.num_envs``
+        env: the game (group ``env``, as in ``rlhc.run``; any registered game):
+            ``env.name``, ``env.num_envs``
             (worlds played in parallel; ``None``: ``min(32, matches)``), ``env.max_cycles``
             and, for tennis, ``env.extended_obs``. Options a checkpoint was trained with
             (e.g. ``extended_obs``) override these, since its policy depends on them.
@@ -51,7 +53,8 @@ class EvaluateConfig:
             each side when ``swap_sides``.
         deterministic: the policies' mode action; ``false``: sampled actions.
         swap_sides: alternate the home player's team between matches.
-        points_to_win: first to this many points wins (``None``: tennis 5, soccer 1).
+        points_to_win: first to this many points wins (``None``: the game's
+            ``points_to_win`` in the registry, tennis 5, soccer 1).
         max_match_steps: a match still undecided after this many steps is a draw
             (``None``: ``max_cycles × points_to_win``).
         k_factor: Elo K-factor.
@@ -64,8 +67,8 @@ class EvaluateConfig:
 
     mode: str = "match"
     env: Any = MISSING
-    home: str = "scripted"
-    away: str = "random"
+    home: str = SCRIPTED
+    away: str = RANDOM
     players: list[str] = field(default_factory=list)
     matches: int = 100
     deterministic: bool = True
@@ -87,8 +90,8 @@ def validate_evaluate(cfg: EvaluateConfig) -> None:
     """Check what the schema cannot express; errors name the key and the allowed values."""
     if cfg.mode not in MODES:
         raise ValueError(f"mode={cfg.mode!r}; allowed: {', '.join(MODES)}")
-    if cfg.env.name not in ENVS:
-        raise ValueError(f"env={cfg.env.name!r}; allowed: {', '.join(ENVS)}")
+    if cfg.env.name not in games():
+        raise ValueError(f"env={cfg.env.name!r}; allowed: {', '.join(games())}")
     if cfg.matches < 1 or (cfg.env.num_envs is not None and cfg.env.num_envs < 1):
         raise ValueError(
             f"matches={cfg.matches}, env.num_envs={cfg.env.num_envs}; both must be >= 1"

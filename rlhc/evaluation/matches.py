@@ -10,10 +10,11 @@ is no Python loop over worlds: an agent takes the home action where its
 **Scoring.** Every step, the env reports ``("next", "scoring_team")``: the team that
 won the point or goal, ``-1`` if none. A match is won by the first team to
 ``points_to_win`` points; it is a draw when ``max_steps`` steps pass first. Defaults
-(:func:`default_rules`): soccer — one goal wins and the step budget is one episode
-(``max_cycles``), so no goal by truncation is a draw; tennis — first to 5 points
-(a truncated rally scores nothing and a new serve follows), within 5 rallies of
-``max_cycles`` steps.
+(:func:`default_rules`) come from the game's registry entry
+(:attr:`GameSpec.points_to_win <rlhc.envs.registry.GameSpec>`), within
+``points_to_win × max_cycles`` steps: soccer — one goal wins and the step budget is one
+episode, so no goal by truncation is a draw; tennis — first to 5 points (a truncated
+rally scores nothing and a new serve follows), within 5 rallies of ``max_cycles`` steps.
 
 **Outcome statistics** (:class:`MatchResult`): wins, draws and losses from the home
 policy's view, each rate with its 95% Wilson interval (:func:`~rlhc.evaluation.stats.wilson_interval`),
@@ -35,6 +36,8 @@ from tensordict import TensorDictBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
 from rlhc.envs import make_env
+from rlhc.envs.keys import ACTION, DONE, INFO, NEXT, RESET, SCORING_TEAM, SCRIPTED, TEAM
+from rlhc.envs.registry import game_spec
 from rlhc.envs.torchrl_adapter import BatchedGameEnv
 from rlhc.evaluation.opponents import TeamPolicy, make_team_policy, player_options
 from rlhc.evaluation.stats import wilson_interval
@@ -43,7 +46,6 @@ from rlhc.evaluation.stats import wilson_interval
 #: the points ``[K, 2]`` of the running matches (by team) and their steps ``[K]``
 #: (used to record videos).
 StepCallback = Callable[[TensorDictBase, np.ndarray, np.ndarray], None]
-DEFAULT_POINTS = {"tennis": 5, "soccer": 1}
 
 
 @dataclass(frozen=True)
@@ -62,9 +64,26 @@ class MatchRules:
 def default_rules(
     env_name: str, max_cycles: int, points_to_win: int | None = None, max_steps: int | None = None
 ) -> MatchRules:
-    """The rules of the module docstring, with optional overrides."""
-    points = points_to_win if points_to_win is not None else DEFAULT_POINTS.get(env_name, 1)
-    budget = max_steps if max_steps is not None else max_cycles * (1 if points == 1 else points)
+    """The game's match rules (module docstring), with optional overrides.
+
+    Args:
+        env_name: a registered game; its ``points_to_win`` is the default.
+        max_cycles: the game's episode length in decisions.
+        points_to_win: override of the game's default.
+        max_steps: override of ``points_to_win × max_cycles``.
+
+    Raises:
+        ValueError: an unknown game (the registered ones are listed), or a rule below 1.
+
+    Examples:
+        >>> default_rules("tennis", max_cycles=400)
+        MatchRules(points_to_win=5, max_steps=2000)
+        >>> default_rules("soccer", max_cycles=600)
+        MatchRules(points_to_win=1, max_steps=600)
+    """
+    default = game_spec(env_name).points_to_win
+    points = points_to_win if points_to_win is not None else default
+    budget = max_steps if max_steps is not None else max_cycles * points
     if points < 1 or budget < 1:
         raise ValueError(f"points_to_win and max_steps must be >= 1, got {points}, {budget}")
     return MatchRules(points, budget)
@@ -151,10 +170,10 @@ def _route(
 ) -> None:
     """Write each agent's action from the policy that controls its team, in place."""
     for group, home_action in home.items():
-        team = tensordict[group, "team"].squeeze(-1)  # [K, n_g]
+        team = tensordict[group, TEAM].squeeze(-1)  # [K, n_g]
         is_home = team == home_side.view(-1, 1)
         mask = is_home.view(*is_home.shape, *([1] * (home_action.dim() - is_home.dim())))
-        tensordict.set((group, "action"), torch.where(mask, home_action, away[group]))
+        tensordict.set((group, ACTION), torch.where(mask, home_action, away[group]))
 
 
 def play_matches(
@@ -215,10 +234,10 @@ def play_matches(
             side = torch.from_numpy(home_side[np.minimum(match_of_world, matches - 1)])
             _route(tensordict, home(tensordict), away(tensordict), side)
             tensordict = env.step(tensordict)
-            scoring = tensordict["next", "scoring_team"].view(k).numpy()
-            done = tensordict["next", "done"].view(k).numpy()
+            scoring = tensordict[NEXT, SCORING_TEAM].view(k).numpy()
+            done = tensordict[NEXT, DONE].view(k).numpy()
             for key, counts in event_counts.items():
-                counts += tensordict["next", "info", key].view(k, 2).numpy()
+                counts += tensordict[NEXT, INFO, key].view(k, 2).numpy()
             tensordict = step_mdp(tensordict)
             for team in (0, 1):
                 points[:, team] += scoring == team
@@ -246,7 +265,7 @@ def play_matches(
                 counts[over] = 0
             reset = done | over
             if reset.any():
-                tensordict.set("_reset", torch.from_numpy(reset).view(k, 1))
+                tensordict.set(RESET, torch.from_numpy(reset).view(k, 1))
                 tensordict = env.reset(tensordict)
     return MatchResult(
         names[0], names[1], home_side, record_home, record_away, record_steps, record_events
@@ -278,7 +297,7 @@ def make_match_env(
 
 def evaluate_against(
     policy: TeamPolicy,
-    opponent: str = "scripted",
+    opponent: str = SCRIPTED,
     env: str | BatchedGameEnv = "soccer",
     matches: int = 50,
     *,

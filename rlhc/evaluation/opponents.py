@@ -1,90 +1,30 @@
-"""Team policies: what plays one side of a match.
+"""Team policies by name: what plays one side of a match.
 
-A *team policy* maps the env's current TensorDict (batch ``[K]`` worlds) to an action
-for **every** agent of every group, ``{group: [K, n_g, ...]}``; the match loop
-(:mod:`rlhc.evaluation.matches`) keeps the actions of the agents on this policy's side
-and discards the rest. Computing both teams' actions costs one batched call and keeps
-every policy free of team bookkeeping.
+A *team policy* (:class:`~rlhc.evaluation.teams.TeamPolicy`) maps the env's current
+TensorDict to an action for every agent of every group; a *player spec* names one:
 
 | spec | policy |
 |---|---|
-| ``random`` | uniform over each agent's action space |
-| ``scripted`` | the game's scripted players (:mod:`rlhc.envs.tennis.scripted`, :mod:`rlhc.envs.soccer.scripted`) |
+| ``random`` | uniform over each agent's action space (:class:`~rlhc.evaluation.teams.RandomPolicy`) |
+| ``scripted`` | the game's scripted team of the registry (:class:`~rlhc.evaluation.teams.ScriptedPolicy`) |
 | a path | a checkpoint file or a run directory (its ``checkpoints/latest.pt``) |
+
+The built-in teams live in :mod:`rlhc.evaluation.teams` and are re-exported here.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Protocol
-
-import torch
-from tensordict import TensorDictBase
+from typing import Any
 
 from rlhc.checkpoint import load_checkpoint
+from rlhc.envs.keys import RANDOM, SCRIPTED
 from rlhc.envs.torchrl_adapter import BatchedGameEnv
 from rlhc.evaluation.policies import observation_options, restore_policy
+from rlhc.evaluation.teams import RandomPolicy, ScriptedPolicy, TeamPolicy
 
-BUILT_IN = ("random", "scripted")
-
-
-class TeamPolicy(Protocol):
-    """``tensordict [K] -> {group: actions of all agents}``; see the module docstring."""
-
-    def __call__(self, tensordict: TensorDictBase) -> dict[str, torch.Tensor]: ...
-
-
-class RandomPolicy:
-    """Uniform actions from the env's action specs (torch's global generator: seed it).
-
-    Examples:
-        >>> from rlhc.envs import make_env
-        >>> env = make_env("soccer", num_envs=2, seed=0)
-        >>> sorted(RandomPolicy(env)(env.reset()))
-        ['goalie', 'striker']
-    """
-
-    def __init__(self, env: BatchedGameEnv) -> None:
-        self.specs = {g.name: env.full_action_spec[g.name, "action"] for g in env.game.groups}
-
-    def __call__(self, tensordict: TensorDictBase) -> dict[str, torch.Tensor]:
-        return {group: spec.rand() for group, spec in self.specs.items()}
-
-
-class ScriptedPolicy:
-    """The game's scripted players, batched over worlds (deterministic).
-
-    Tennis reads the worker observations; soccer reads the full state of the env's
-    game, which is the state the given TensorDict describes.
-    """
-
-    def __init__(self, env: BatchedGameEnv) -> None:
-        self.env = env
-        self._act: Callable[[TensorDictBase], dict[str, torch.Tensor]]
-        if env.game.name == "tennis":
-            from rlhc.envs.tennis.scripted import ScriptedTennisPolicy
-
-            tennis = ScriptedTennisPolicy(
-                env.game.geometry,  # type: ignore[attr-defined]
-                env.game.decision_interval,  # type: ignore[attr-defined]
-            )
-            self._act = lambda td: {
-                "racket": torch.from_numpy(tennis(td["racket", "observation"].cpu().numpy()))
-            }
-        elif env.game.name == "soccer":
-            from rlhc.envs.soccer.scripted import scripted_actions
-
-            options = env.game.options  # type: ignore[attr-defined]
-            self._act = lambda td: {
-                group: torch.from_numpy(actions)
-                for group, actions in scripted_actions(env.game.state(), options).items()
-            }
-        else:
-            raise ValueError(f"no scripted players for env {env.game.name!r}")
-
-    def __call__(self, tensordict: TensorDictBase) -> dict[str, torch.Tensor]:
-        return self._act(tensordict)
+#: The player specs of the built-in teams.
+BUILT_IN = (RANDOM, SCRIPTED)
 
 
 def load_policy_checkpoint(spec: str, env_name: str) -> dict[str, Any]:
@@ -142,9 +82,9 @@ def make_team_policy(spec: str, env: BatchedGameEnv) -> TeamPolicy:
         >>> make_team_policy("scripted", env)(env.reset())["racket"].shape
         torch.Size([2, 4, 3])
     """
-    if spec == "random":
+    if spec == RANDOM:
         return RandomPolicy(env)
-    if spec == "scripted":
+    if spec == SCRIPTED:
         return ScriptedPolicy(env)
     if not Path(spec).expanduser().exists():
         raise FileNotFoundError(
@@ -152,3 +92,15 @@ def make_team_policy(spec: str, env: BatchedGameEnv) -> TeamPolicy:
             "nor an existing checkpoint file or run directory"
         )
     return restore_policy(load_policy_checkpoint(spec, env.game.name), env)
+
+
+__all__ = [
+    "BUILT_IN",
+    "RandomPolicy",
+    "ScriptedPolicy",
+    "TeamPolicy",
+    "is_built_in",
+    "load_policy_checkpoint",
+    "make_team_policy",
+    "player_options",
+]

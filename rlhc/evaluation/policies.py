@@ -23,18 +23,24 @@ from torchrl.envs import EnvBase, Transform, VecNormV2
 
 from rlhc.builders import make_training_env, network_config
 from rlhc.config import TrainConfig
-from rlhc.envs.config import SoccerEnvConfig, TennisEnvConfig
+from rlhc.envs.keys import ACTION, OBSERVATION
+from rlhc.envs.registry import game_spec
 from rlhc.modules import make_actor
 
-ENV_SCHEMAS: dict[str, type] = {"tennis": TennisEnvConfig, "soccer": SoccerEnvConfig}
 #: Env config fields that do not change what a policy observes.
 NON_OBSERVATION_OPTIONS = ("name", "num_envs", "max_cycles")
 
 
 def checkpoint_config(state: Mapping[str, Any]) -> TrainConfig:
-    """The checkpoint's training config as a typed :class:`TrainConfig`."""
-    name = state["env"]
-    schema = OmegaConf.structured(TrainConfig(env=ENV_SCHEMAS[name]()))
+    """The checkpoint's training config as a typed :class:`TrainConfig`.
+
+    The ``env`` node is typed by the schema of the checkpoint's game in the registry.
+
+    Raises:
+        ValueError: the checkpoint's game is not registered (the message lists the
+            registered games).
+    """
+    schema = OmegaConf.structured(TrainConfig(env=game_spec(state["env"]).env_config()))
     return OmegaConf.to_object(OmegaConf.merge(schema, state["config"]))  # type: ignore[return-value]
 
 
@@ -70,12 +76,12 @@ class RestoredPolicy:
         """
         actions: dict[str, torch.Tensor] = {}
         for group, actor in self.actors.items():
-            inputs = tensordict.select((group, "observation")).clone(recurse=False)
-            observation = tensordict[group, "observation"]
+            inputs = tensordict.select((group, OBSERVATION)).clone(recurse=False)
+            observation = tensordict[group, OBSERVATION]
             if self.loc is not None and self.scale is not None:
                 observation = (observation - self.loc[group]) / self.scale[group]
-            inputs.set((group, "observation"), observation)
-            actions[group] = actor(inputs)[group, "action"]
+            inputs.set((group, OBSERVATION), observation)
+            actions[group] = actor(inputs)[group, ACTION]
         return actions
 
 
@@ -133,6 +139,6 @@ def normaliser_statistics(
     normaliser = next((t for t in transform if isinstance(t, VecNormV2)), None)
     if normaliser is None:
         return None, None
-    loc = {g: normaliser.loc[g, "observation"].nan_to_num(0.0) for g in groups}
-    scale = {g: normaliser.scale[g, "observation"].nan_to_num(1.0, posinf=1.0) for g in groups}
+    loc = {g: normaliser.loc[g, OBSERVATION].nan_to_num(0.0) for g in groups}
+    scale = {g: normaliser.scale[g, OBSERVATION].nan_to_num(1.0, posinf=1.0) for g in groups}
     return loc, scale

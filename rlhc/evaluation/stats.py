@@ -6,7 +6,7 @@
   the regime of a strong policy against a weak one.
 * Means over seeds use the **Student t** interval (few seeds, unknown variance).
 * Two configurations are compared with **Welch's t-test** (unequal variances), on
-  per-run values such as :func:`rlhc.plotting.final_values`.
+  per-run values such as :func:`rlhc.runs.final_values`.
 """
 
 from __future__ import annotations

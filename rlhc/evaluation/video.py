@@ -101,7 +101,7 @@ def record_match(
     video has ``1 + match length`` frames, at most ``max_frames``.
 
     Args:
-        env_name: ``"tennis"`` or ``"soccer"``.
+        env_name: a registered game (:func:`~rlhc.envs.registry.games`), e.g. ``"tennis"``.
         home: a player spec (``random``, ``scripted`` or a checkpoint path); ``away`` likewise.
         path: the ``.gif`` or ``.mp4`` file to write.
         home_side: the team (0 or 1) the home player plays.

@@ -18,10 +18,11 @@ from torch import nn
 from torchrl.data import Bounded, Categorical, Composite
 from torchrl.modules import ProbabilisticActor, TanhNormal
 
+from rlhc.envs.keys import ACTION, LOC, LOGITS, OBSERVATION, SCALE
 from rlhc.modules.config import NetworkConfig
-from rlhc.modules.keys import ACTION, LOC, LOGITS, OBSERVATION, SCALE
+from rlhc.modules.mlp import group_mlp
 from rlhc.modules.shared import make_actor_value
-from rlhc.modules.specs import HasSpecs, action_spec, group_mlp, observation_size
+from rlhc.modules.specs import HasSpecs, action_spec, observation_size
 
 
 def _per_agent_bound(bound: torch.Tensor, size: int, name: str) -> torch.Tensor:

@@ -10,9 +10,10 @@ from __future__ import annotations
 
 from tensordict.nn import TensorDictModule
 
+from rlhc.envs.keys import MANAGER_OBSERVATION, MANAGER_VALUE, OBSERVATION, WORKER_VALUE
 from rlhc.modules.config import NetworkConfig
-from rlhc.modules.keys import MANAGER_OBSERVATION, MANAGER_VALUE, OBSERVATION, WORKER_VALUE
-from rlhc.modules.specs import HasSpecs, group_mlp, observation_size
+from rlhc.modules.mlp import group_mlp
+from rlhc.modules.specs import HasSpecs, observation_size
 
 
 def make_worker_critic(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModule:

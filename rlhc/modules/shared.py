@@ -29,8 +29,8 @@ from torch import nn
 from torchrl.data import Categorical, Composite
 from torchrl.modules import ActorValueOperator, MultiAgentMLP, ProbabilisticActor
 
+from rlhc.envs.keys import ACTION, HIDDEN, LOGITS, OBSERVATION, WORKER_VALUE
 from rlhc.modules.config import NetworkConfig
-from rlhc.modules.keys import ACTION, HIDDEN, LOGITS, OBSERVATION, WORKER_VALUE
 from rlhc.modules.specs import HasSpecs, action_spec, observation_size
 
 
@@ -63,7 +63,7 @@ def shared_trunk_error(group: str, spec: object) -> str | None:
 def make_trunk(n_inputs: int, n_agents: int, cfg: NetworkConfig) -> MultiAgentMLP:
     """The hidden layers of a shared network: ``cfg.num_layers`` layers, each activated.
 
-    The same layers as the hidden part of :func:`~rlhc.modules.specs.group_mlp` (one set
+    The same layers as the hidden part of :func:`~rlhc.modules.mlp.group_mlp` (one set
     of weights for every agent of the group), without its output layer.
 
     Args:

@@ -1,4 +1,4 @@
-"""Reading a group's sizes from TorchRL specs, and the one MLP every network uses.
+"""Reading a group's sizes from TorchRL specs.
 
 The factories of :mod:`rlhc.modules.actors` and :mod:`rlhc.modules.critics` take any
 object with ``full_observation_spec`` and ``full_action_spec`` (a TorchRL ``EnvBase``
@@ -11,10 +11,8 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from torchrl.data import Composite, TensorSpec
-from torchrl.modules import MultiAgentMLP
 
-from rlhc.modules.config import NetworkConfig
-from rlhc.modules.keys import ACTION, MANAGER_OBSERVATION, OBSERVATION
+from rlhc.envs.keys import ACTION, MANAGER_OBSERVATION, OBSERVATION
 
 
 class HasSpecs(Protocol):
@@ -69,33 +67,3 @@ def observation_size(env: HasSpecs, group: str, *, manager: bool = False) -> tup
 def action_spec(env: HasSpecs, group: str) -> TensorSpec:
     """The action spec ``(group, "action")`` of ``env``."""
     return _leaf_spec(env.full_action_spec, (group, ACTION), "action")
-
-
-def group_mlp(n_inputs: int, n_outputs: int, n_agents: int, cfg: NetworkConfig) -> MultiAgentMLP:
-    """One MLP applied to every agent of a group with the same weights.
-
-    ``share_params=True`` is symmetric self-play (both teams, all agents of a group
-    share a network, each agent seeing the world in its own team's frame);
-    ``centralized=False`` keeps each agent's input its own. Batching the agents into
-    one matmul is also what makes a PPO update about twice as fast as a loop over
-    agents on our 2-core machine (DESIGN.md, performance table).
-
-    Args:
-        n_inputs: per-agent input size.
-        n_outputs: per-agent output size.
-        n_agents: agents in the group.
-        cfg: depth, width and activation.
-
-    Returns:
-        A ``MultiAgentMLP`` mapping ``[*B, n_agents, n_inputs]`` to ``[*B, n_agents, n_outputs]``.
-    """
-    return MultiAgentMLP(
-        n_agent_inputs=n_inputs,
-        n_agent_outputs=n_outputs,
-        n_agents=n_agents,
-        centralized=False,
-        share_params=True,
-        depth=cfg.num_layers,
-        num_cells=cfg.hidden_size,
-        activation_class=cfg.activation_class,
-    )

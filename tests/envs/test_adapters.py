@@ -1,5 +1,6 @@
-"""The generic adapters (TorchRL batched env, PettingZoo parallel env), run on tennis
-and on a tiny discrete-action game that stands in for soccer's groups."""
+"""The generic adapters (TorchRL batched env, PettingZoo parallel env), run on tennis,
+on every registered game (PettingZoo's API suites) and on a tiny discrete-action game
+that stands in for soccer's groups."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import torch
 from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, render_test
 from torchrl.envs.utils import check_env_specs
 
-from rlhc.envs import make_env, make_game
+from rlhc.envs import game_spec, games, make_aec_env, make_env, make_game, make_parallel_env
 from rlhc.envs.base import (
     BatchedGame,
     DiscreteAction,
@@ -20,7 +21,6 @@ from rlhc.envs.base import (
     GroupSpec,
 )
 from rlhc.envs.pettingzoo_adapter import BatchedGameParallelEnv
-from rlhc.envs.tennis import env as tennis_aec_env
 from rlhc.envs.tennis import parallel_env as tennis_parallel_env
 from rlhc.envs.torchrl_adapter import BatchedGameEnv
 
@@ -184,20 +184,33 @@ def test_missing_action_names_the_group() -> None:
 
 
 # --- PettingZoo ------------------------------------------------------------------------------
-def test_pettingzoo_parallel_api() -> None:
-    parallel_api_test(tennis_parallel_env(max_cycles=200), num_cycles=600)
+@pytest.mark.parametrize("game", games())
+def test_pettingzoo_parallel_api(game: str) -> None:
+    parallel_api_test(make_parallel_env(game, seed=0, max_cycles=200), num_cycles=600)
 
 
-def test_pettingzoo_seed() -> None:
-    parallel_seed_test(lambda: tennis_parallel_env(max_cycles=200))
+@pytest.mark.parametrize("game", games())
+def test_pettingzoo_seed(game: str) -> None:
+    parallel_seed_test(lambda: make_parallel_env(game, max_cycles=200))
 
 
-def test_pettingzoo_render_and_aec_api() -> None:
-    render_test(tennis_aec_env)
-    api_test(tennis_aec_env(max_cycles=100), num_cycles=200)
-    frame = tennis_parallel_env(render_mode="rgb_array").render()
+@pytest.mark.parametrize("game", games())
+def test_pettingzoo_render_and_aec_api(game: str) -> None:
+    render_test(lambda render_mode=None: make_aec_env(game, render_mode=render_mode))
+    api_test(make_aec_env(game, max_cycles=100), num_cycles=200)
+    frame = make_parallel_env(game, render_mode="rgb_array").render()
     assert frame is not None and frame.dtype == np.uint8 and frame.shape[2] == 3
     assert frame.std() > 0  # something is drawn
+
+
+@pytest.mark.parametrize("game", games())
+def test_each_game_package_offers_its_pettingzoo_envs(game: str) -> None:
+    import importlib
+
+    package = importlib.import_module(game_spec(game).game.__module__.rpartition(".")[0])
+    parallel = package.parallel_env(max_cycles=3)
+    assert type(parallel.game) is game_spec(game).game and parallel.game.max_cycles == 3
+    assert package.env().possible_agents == make_aec_env(game).possible_agents
 
 
 def test_pettingzoo_infos_state_and_episode_end() -> None:
@@ -240,21 +253,17 @@ def test_pettingzoo_wraps_discrete_games_and_one_world_only() -> None:
         BatchedGameParallelEnv(make_game("tennis", num_envs=2))
 
 
-@pytest.mark.parametrize(
-    ("game", "group", "manager_size"), [("tennis", "racket", 10), ("soccer", "striker", 200)]
-)
-def test_torchrl_pettingzoo_wrapper_accepts_the_parallel_env(
-    game: str, group: str, manager_size: int
-) -> None:
+@pytest.mark.parametrize("game", games())
+def test_torchrl_pettingzoo_wrapper_accepts_the_parallel_env(game: str) -> None:
     """Info keys are the same at reset and step, so TorchRL's wrapper sizes its specs
     (before, it failed on the first step). No point can end within 3 steps of a serve or
     kick-off, so ``scoring_team`` is -1 throughout: the check is that the key is carried."""
-    import importlib
-
     from torchrl.envs import PettingZooWrapper
 
-    module = importlib.import_module(f"rlhc.envs.{game}")
-    env = PettingZooWrapper(module.parallel_env(max_cycles=5), use_mask=True)
+    pettingzoo_env = make_parallel_env(game, max_cycles=5)
+    first = pettingzoo_env.game.groups[0]  # tennis: racket (10); soccer: striker (200)
+    group, manager_size = first.name, first.manager_observation_size
+    env = PettingZooWrapper(pettingzoo_env, use_mask=True)
     rollout = env.rollout(3)
     assert rollout[group, "info", "manager_observation"].shape[-1] == manager_size
     assert (rollout["next", group, "info", "scoring_team"] == -1).all()

@@ -9,6 +9,7 @@ from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
 from rlhc.config import TrainConfig, register_configs
+from rlhc.envs import games
 
 CONF = Path(__file__).resolve().parents[2] / "conf"
 register_configs()
@@ -26,7 +27,7 @@ def checkpoints(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     from rlhc.trainer import Trainer
 
     runs = {}
-    for env in ("tennis", "soccer"):
+    for env in games():
         run_dir = tmp_path_factory.mktemp(f"{env}_run")
         Trainer(smoke_config(env, "algo.max_steps=256", "logger.backends=[csv]"), run_dir).train()
         runs[env] = run_dir

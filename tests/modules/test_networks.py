@@ -7,6 +7,7 @@ import torch
 from tensordict import TensorDict
 from torchrl.data import Bounded, Categorical, Composite, OneHot, Unbounded
 
+from rlhc.errors import ConfigError
 from rlhc.modules import (
     EnvSpecs,
     NetworkConfig,
@@ -138,11 +139,12 @@ def test_agents_are_interchangeable(name: str) -> None:
 
 def test_network_config_validation() -> None:
     assert NetworkConfig().activation_class is torch.nn.Tanh
-    with pytest.raises(ValueError, match=r"unknown activation 'swish'; choose one of \['elu'"):
+    # The one error type of a bad setting, naming the key, the value and what is allowed.
+    with pytest.raises(ConfigError, match=r"model\.activation='swish'; allowed: tanh, relu"):
         NetworkConfig(activation="swish")
-    with pytest.raises(ValueError, match="num_layers must be >= 1"):
+    with pytest.raises(ConfigError, match=r"model\.num_layers=0; allowed: an integer >= 1"):
         NetworkConfig(num_layers=0)
-    with pytest.raises(ValueError, match="hidden_size must be >= 1"):
+    with pytest.raises(ConfigError, match=r"model\.hidden_size=0; allowed: an integer >= 1"):
         NetworkConfig(hidden_size=0)
 
 

@@ -4,7 +4,10 @@
   :func:`rlhc.envs.make_env` (``make_env("soccer", num_envs=N)``);
 * :func:`parallel_env` / :func:`env` — a PettingZoo env of one pitch;
 * :func:`scripted_actions` — a ball-chasing striker and a goal-guarding goalie, batched,
-  as evaluation opponents.
+  as evaluation opponents (:func:`~rlhc.envs.soccer.scripted.scripted_team`, the game's
+  scripted team).
+
+Importing this package registers the game (:data:`SPEC`) in :mod:`rlhc.envs.registry`.
 """
 
 from __future__ import annotations
@@ -12,12 +15,26 @@ from __future__ import annotations
 from typing import Any
 
 from pettingzoo import AECEnv
-from pettingzoo.utils.conversions import parallel_to_aec
 
+from rlhc.envs import make_aec_env, make_parallel_env
+from rlhc.envs.config import SoccerEnvConfig
 from rlhc.envs.pettingzoo_adapter import BatchedGameParallelEnv
+from rlhc.envs.registry import GameSpec, register_game
 from rlhc.envs.soccer.config import SoccerOptions
 from rlhc.envs.soccer.game import SoccerGame
-from rlhc.envs.soccer.scripted import scripted_actions
+from rlhc.envs.soccer.scripted import scripted_actions, scripted_team
+
+#: The game's entry in the registry.
+SPEC = register_game(
+    GameSpec(
+        name="soccer",
+        game=SoccerGame,
+        env_config=SoccerEnvConfig,
+        groups=("striker", "goalie"),
+        scripted=scripted_team,
+        points_to_win=1,  # one goal wins; no goal within one episode is a draw
+    )
+)
 
 
 def parallel_env(
@@ -40,14 +57,12 @@ def parallel_env(
         >>> observations["striker_0"].shape, infos["goalie_1"]["manager_observation"].shape
         ((112,), (200,))
     """
-    return BatchedGameParallelEnv(
-        SoccerGame(num_worlds=1, seed=seed, **options), render_mode=render_mode
-    )
+    return make_parallel_env(SPEC.name, render_mode=render_mode, seed=seed, **options)
 
 
 def env(render_mode: str | None = None, seed: int | None = None, **options: Any) -> AECEnv:
     """The PettingZoo AEC view of :func:`parallel_env` (agents act in turn)."""
-    return parallel_to_aec(parallel_env(render_mode=render_mode, seed=seed, **options))
+    return make_aec_env(SPEC.name, render_mode=render_mode, seed=seed, **options)
 
 
-__all__ = ["SoccerGame", "SoccerOptions", "env", "parallel_env", "scripted_actions"]
+__all__ = ["SPEC", "SoccerGame", "SoccerOptions", "env", "parallel_env", "scripted_actions"]

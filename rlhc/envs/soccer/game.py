@@ -58,6 +58,7 @@ from rlhc.envs.soccer.physics import (
     SoccerPhysics,
     facing_vectors,
 )
+from rlhc.envs.soccer.render import render_pitch
 from rlhc.envs.soccer.rules import ROLE_BODIES, kickoff, rewards, scoring_team
 
 #: length of :meth:`SoccerGame.state`.
@@ -240,8 +241,6 @@ class SoccerGame(BatchedGame):
 
     def render(self, world: int = 0, *, rays: bool = False) -> np.ndarray:
         """``uint8 [H, W, 3]`` picture of pitch ``world``; ``rays=True`` overlays the worker rays."""
-        from rlhc.envs.soccer.render import render_pitch
-
         if not 0 <= world < self.num_worlds:
             raise ValueError(f"world must lie in [0, {self.num_worlds - 1}], got {world}")
         return render_pitch(self, world, rays=rays)

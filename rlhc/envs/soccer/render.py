@@ -1,17 +1,29 @@
-"""A top-down picture of one pitch, drawn with the shared Pillow :class:`Canvas`."""
+"""A top-down picture of one pitch, drawn with the shared Pillow :class:`Canvas`.
+
+The picture needs the pitch, the bodies, the sensors and the step counters, not the
+game: this module reads a :class:`PitchView` (which
+:class:`~rlhc.envs.soccer.game.SoccerGame` is) and does not import the game module,
+which imports this one.
+"""
 
 from __future__ import annotations
 
 import itertools
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
 from rlhc.envs.render import Canvas, Color
-from rlhc.envs.soccer.physics import BALL, NUM_PLAYERS, PLAYER_IS_STRIKER, PLAYER_TEAM
-
-if TYPE_CHECKING:
-    from rlhc.envs.soccer.game import SoccerGame
+from rlhc.envs.soccer.config import SoccerOptions
+from rlhc.envs.soccer.observations import RaySensors
+from rlhc.envs.soccer.physics import (
+    BALL,
+    NUM_PLAYERS,
+    PLAYER_IS_STRIKER,
+    PLAYER_TEAM,
+    PitchGeometry,
+    SoccerPhysics,
+)
 
 GRASS: Color = (46, 139, 60)
 LINES: Color = (235, 245, 235)
@@ -25,13 +37,37 @@ RAY_COLOR: Color = (255, 255, 160)
 _MARGIN = 0.6  # metres of wall shown around the pitch
 
 
+class PitchView(Protocol):
+    """What :func:`render_pitch` reads of a soccer game."""
+
+    @property
+    def geometry(self) -> PitchGeometry:
+        """The pitch's sizes."""
+
+    @property
+    def physics(self) -> SoccerPhysics:
+        """The bodies of every pitch."""
+
+    @property
+    def options(self) -> SoccerOptions:
+        """The game options (radii)."""
+
+    @property
+    def sensors(self) -> RaySensors:
+        """The players' ray sensors (for ``rays=True``)."""
+
+    @property
+    def step_count(self) -> np.ndarray:
+        """``int64 [N]`` decisions of each pitch's episode."""
+
+
 def render_pitch(
-    game: SoccerGame, world: int, rays: bool = False, pixels_per_metre: float = 32.0
+    game: PitchView, world: int, rays: bool = False, pixels_per_metre: float = 32.0
 ) -> np.ndarray:
     """Draw pitch ``world`` of ``game``.
 
     Args:
-        game: the game.
+        game: the game (a :class:`PitchView`).
         world: which pitch.
         rays: overlay each player's worker rays, cut at their first hit.
         pixels_per_metre: the scale.

@@ -12,14 +12,19 @@ team's frame (team 1 rotates the pitch by 180°), so one rule serves both sides:
   centre to the ball crosses it (narrowing the angle) or, when the ball rolls towards
   the goal, where the ball's path crosses it; it steps out to clear a ball that comes
   close in front of it.
+
+:func:`scripted_team` is the game's scripted team of the registry
+(:class:`~rlhc.envs.registry.GameSpec`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from rlhc.envs.base import BatchedGame
 from rlhc.envs.soccer.config import SoccerOptions
 from rlhc.envs.soccer.controls import GOALIE_ACTIONS, STRIKER_ACTIONS
+from rlhc.envs.soccer.game import SoccerGame
 
 _STRIKER = {name: index for index, name in enumerate(STRIKER_ACTIONS)}
 _GOALIE = {name: index for index, name in enumerate(GOALIE_ACTIONS)}
@@ -167,3 +172,26 @@ def scripted_actions(
         "striker": np.stack([striker_actions(state, team, options) for team in (0, 1)], axis=1),
         "goalie": np.stack([goalie_actions(state, team, options) for team in (0, 1)], axis=1),
     }
+
+
+def scripted_team(game: BatchedGame) -> dict[str, np.ndarray]:
+    """Actions of the scripted players of both teams, for every pitch of ``game``.
+
+    Args:
+        game: a :class:`~rlhc.envs.soccer.game.SoccerGame`; its current full state and
+            its options are read.
+
+    Returns:
+        ``{"striker": int64 [N, 2], "goalie": int64 [N, 2]}`` (:func:`scripted_actions`).
+
+    Raises:
+        TypeError: ``game`` is not a soccer game.
+
+    Examples:
+        >>> from rlhc.envs.soccer.game import SoccerGame
+        >>> sorted(scripted_team(SoccerGame(num_worlds=2, seed=0)))
+        ['goalie', 'striker']
+    """
+    if not isinstance(game, SoccerGame):
+        raise TypeError(f"the scripted soccer team plays a SoccerGame, got {type(game).__name__}")
+    return scripted_actions(game.state(), game.options)

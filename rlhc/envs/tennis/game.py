@@ -41,6 +41,7 @@ from rlhc.envs.tennis.observations import (
     worker_size,
 )
 from rlhc.envs.tennis.physics import CourtGeometry, TennisPhysics
+from rlhc.envs.tennis.render import render_court
 from rlhc.envs.tennis.rules import FAULT_PENALTIES, Rally, judge
 
 GROUP = "racket"
@@ -266,6 +267,4 @@ class TennisGame(BatchedGame):
         self.rally.credit_pending[mask] = False
 
     def render(self, world: int = 0) -> np.ndarray:
-        from rlhc.envs.tennis.render import render_court
-
         return render_court(self, world)

@@ -1,26 +1,45 @@
-"""A picture of one tennis court (side view), drawn with :mod:`rlhc.envs.render`."""
+"""A picture of one tennis court (side view), drawn with :mod:`rlhc.envs.render`.
+
+The picture needs the court, the bodies and the step counters, not the game: this
+module reads a :class:`CourtView` (which :class:`~rlhc.envs.tennis.game.TennisGame`
+is) and does not import the game module, which imports this one.
+"""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
 from rlhc.envs.render import Canvas
-
-if TYPE_CHECKING:
-    from rlhc.envs.tennis.game import TennisGame
+from rlhc.envs.tennis.physics import CourtGeometry, TennisPhysics
 
 _TEAM_COLOURS = ((40, 90, 200), (200, 60, 40))
 _COURT = (90, 160, 90)
 _OUT = (170, 200, 170)
 
 
-def render_court(game: TennisGame, world: int = 0, pixels_per_metre: float = 40.0) -> np.ndarray:
+class CourtView(Protocol):
+    """What :func:`render_court` reads of a tennis game."""
+
+    @property
+    def geometry(self) -> CourtGeometry:
+        """The court's sizes."""
+
+    @property
+    def physics(self) -> TennisPhysics:
+        """The ball and rackets of every court."""
+
+    @property
+    def step_count(self) -> np.ndarray:
+        """``int64 [N]`` decisions of each court's episode."""
+
+
+def render_court(game: CourtView, world: int = 0, pixels_per_metre: float = 40.0) -> np.ndarray:
     """An RGB frame ``uint8 [H, W, 3]`` of court ``world``.
 
     Args:
-        game: the tennis game.
+        game: the tennis game (a :class:`CourtView`).
         world: which court.
         pixels_per_metre: image scale (40 gives 640 × 240 pixels).
 

@@ -10,13 +10,18 @@ For the racket in charge it predicts where the ball will come down to paddle
 height, runs there, and tilts the paddle so that a mirror reflection would send
 the ball towards ``aim_x`` in the opponents' half on an arc of ``launch_speed_y``
 upwards. A jump adds pace when the ball comes in slowly.
+
+:func:`scripted_team` is the game's scripted team of the registry
+(:class:`~rlhc.envs.registry.GameSpec`): all four rackets of every court.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from rlhc.envs.base import BatchedGame
 from rlhc.envs.tennis.control import DECISION_INTERVAL
+from rlhc.envs.tennis.game import TennisGame
 from rlhc.envs.tennis.observations import LENGTH_SCALE, VELOCITY_SCALE
 from rlhc.envs.tennis.physics import CourtGeometry
 
@@ -108,3 +113,28 @@ class ScriptedTennisPolicy:
         grounded = racket_y <= g.racket_ground_y + 1e-3
         jump = np.where(in_charge & slow & close & soon & grounded, 0.6, 0.0)
         return np.stack([move, jump, rotate], axis=-1).astype(np.float32)
+
+
+def scripted_team(game: BatchedGame) -> dict[str, np.ndarray]:
+    """Actions of the scripted rackets of both teams, for every court of ``game``.
+
+    Args:
+        game: a :class:`~rlhc.envs.tennis.game.TennisGame`; its current worker
+            observations are read (the court and decision interval it plays with).
+
+    Returns:
+        ``{"racket": float32 [N, 4, 3]}``, ready for :meth:`TennisGame.step`.
+
+    Raises:
+        TypeError: ``game`` is not a tennis game.
+
+    Examples:
+        >>> from rlhc.envs.tennis import TennisGame
+        >>> game = TennisGame(num_worlds=2, seed=0)
+        >>> scripted_team(game)["racket"].shape
+        (2, 4, 3)
+    """
+    if not isinstance(game, TennisGame):
+        raise TypeError(f"the scripted tennis team plays a TennisGame, got {type(game).__name__}")
+    policy = ScriptedTennisPolicy(game.geometry, game.decision_interval)
+    return {"racket": policy(game.observe()["racket"].observation)}

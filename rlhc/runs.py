@@ -1,0 +1,348 @@
+"""Reading runs: ``metrics.csv`` and configs, seed grouping, smoothed curves, final values.
+
+The paper reports four curves against environment steps: cumulative reward, episode
+length, entropy and value estimate. Each run directory holds a ``metrics.csv`` (one row
+per summary, ``step`` = frames) and its composed config (``.hydra/config.yaml``, or the
+``config`` stored in its checkpoint). This module
+
+1. finds runs under the given paths (a multirun directory holds many);
+2. groups them by the config keys that differ between them, ignoring the seed — so
+   seeds of one configuration are averaged — and labels each group by those keys
+   (e.g. ``fusion=max, extended_obs=true``);
+3. smooths each run like TensorBoard (:func:`ema_smooth`), interpolates the runs of a
+   group onto common steps, and draws their mean with a shaded 95% Student t interval;
+4. gives, per run, the mean of the last 10% of a curve (:func:`final_values`): the
+   numbers a reproduction compares with Welch's t-test
+   (:func:`rlhc.evaluation.stats.welch_t_test`).
+
+Figures are drawn by :mod:`rlhc.plotting` from what this module reads.
+
+Examples:
+    >>> from rlhc.runs import load_runs, group_runs  # doctest: +SKIP
+    >>> groups = group_runs(load_runs(["multirun/2025-01-01_00-00-00"]))  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from collections import defaultdict
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from omegaconf import OmegaConf
+
+from rlhc.evaluation.stats import t_half_width
+
+METRICS_FILE = "metrics.csv"
+HYDRA_CONFIG = Path(".hydra") / "config.yaml"
+#: The paper's four curves: metric leaf -> axis title. Group metrics are ``<g>/<leaf>``.
+PAPER_METRICS: dict[str, str] = {
+    "cumulative_reward": "cumulative reward",
+    "episode_length": "episode length",
+    "entropy": "entropy",
+    "state_value": "value estimate",
+}
+#: Config keys that never distinguish configurations (seeds are what gets averaged).
+IGNORED_KEYS = (
+    "seed",
+    "resume",
+    "device",
+    "threads",
+    "checkpoint_freq",
+    "eval_freq",
+    "eval_matches",
+)
+IGNORED_PREFIXES = ("logger.",)
+#: Label keys when all runs share one configuration.
+FALLBACK_LABEL_KEYS = ("env.name", "critic.fusion")
+
+
+@dataclass
+class Run:
+    """One training run's logged metrics and config.
+
+    Attributes:
+        path: the run directory.
+        columns: metric name -> values, one per ``metrics.csv`` row (``nan`` if absent).
+        config: the flattened config (``"critic.fusion" -> "max"``), empty if unknown.
+    """
+
+    path: Path
+    columns: dict[str, np.ndarray]
+    config: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def steps(self) -> np.ndarray:
+        return self.columns["step"]
+
+
+def split_run_paths(
+    paths: Iterable[str | os.PathLike[str]],
+) -> tuple[list[Path], list[Path]]:
+    """The run directories (holding ``metrics.csv``) at or under ``paths``, and the paths with none.
+
+    A path is a run directory, a directory with runs below it (a multirun) or a
+    ``metrics.csv`` file; any other file (a multirun's ``multirun.yaml``) or a directory
+    without ``metrics.csv`` below it holds no run.
+
+    Returns:
+        ``(runs, not_runs)``: run directories sorted without duplicates; paths holding no
+        run in the order given.
+
+    Raises:
+        FileNotFoundError: a path does not exist (named).
+    """
+    found: list[Path] = []
+    not_runs: list[Path] = []
+    for raw in paths:
+        path = Path(raw).expanduser()
+        if path.is_file() and path.name == METRICS_FILE:
+            found.append(path.parent)
+            continue
+        if not path.exists():
+            raise FileNotFoundError(f"run path {str(path)!r} does not exist")
+        runs = sorted(p.parent for p in path.rglob(METRICS_FILE)) if path.is_dir() else []
+        found.extend(runs)
+        if not runs:
+            not_runs.append(path)
+    return sorted(dict.fromkeys(found)), not_runs
+
+
+def find_runs(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
+    """Run directories at or under ``paths``, sorted; every path must hold one.
+
+    Raises:
+        FileNotFoundError: a path does not exist, or holds no ``metrics.csv`` at all.
+    """
+    runs, not_runs = split_run_paths(paths)
+    if not_runs:
+        raise FileNotFoundError(f"no {METRICS_FILE} at or under {str(not_runs[0])!r}")
+    return runs
+
+
+def read_metrics(path: Path) -> dict[str, np.ndarray]:
+    """The columns of a ``metrics.csv`` as float arrays (empty cells are ``nan``)."""
+    with path.open(newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows or "step" not in rows[0]:
+        raise ValueError(f"{str(path)!r} has no rows or no 'step' column")
+    names = list(rows[0])
+    return {
+        name: np.array([float(row[name]) if row.get(name) else math.nan for row in rows])
+        for name in names
+    }
+
+
+def flatten(tree: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{"a": {"b": 1}} -> {"a.b": 1}`` (lists are kept as values)."""
+    flat: dict[str, Any] = {}
+    for key, value in tree.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, Mapping):
+            flat.update(flatten(value, f"{name}."))
+        else:
+            flat[name] = value
+    return flat
+
+
+def read_config(run_dir: Path) -> dict[str, Any]:
+    """The run's flattened config: Hydra's record, else the latest checkpoint's, else ``{}``."""
+    hydra_file = run_dir / HYDRA_CONFIG
+    if hydra_file.is_file():
+        container = OmegaConf.to_container(OmegaConf.load(hydra_file), resolve=False)
+        return (
+            flatten({str(k): v for k, v in container.items()})
+            if isinstance(container, dict)
+            else {}
+        )
+    from rlhc.checkpoint import load_checkpoint  # torch is only needed on this path
+
+    try:
+        return flatten(load_checkpoint(run_dir).get("config", {}))
+    except (FileNotFoundError, ValueError):
+        return {}
+
+
+def load_runs(paths: Iterable[str | os.PathLike[str]]) -> list[Run]:
+    """Every run at or under ``paths`` (see :func:`find_runs`), metrics and config read."""
+    return [
+        Run(run_dir, read_metrics(run_dir / METRICS_FILE), read_config(run_dir))
+        for run_dir in find_runs(paths)
+    ]
+
+
+def ema_smooth(values: Sequence[float] | np.ndarray, weight: float = 0.8) -> np.ndarray:
+    """TensorBoard's smoothing: a debiased exponential moving average.
+
+    ``m_i = w·m_{i-1} + (1 - w)·x_i`` from ``m_{-1} = 0``, reported as
+    ``m_i / (1 - w^{k})`` where ``k`` counts the finite values so far — the debias
+    that stops the curve starting at 0. Non-finite values are skipped and stay ``nan``.
+
+    Args:
+        values: the raw curve.
+        weight: ``w`` in ``[0, 1)``; 0 returns the curve unchanged.
+
+    Examples:
+        >>> ema_smooth([1.0, 1.0, 1.0], 0.9).tolist()
+        [1.0, 1.0, 1.0]
+        >>> [round(float(v), 4) for v in ema_smooth([0.0, 1.0], 0.5)]
+        [0.0, 0.6667]
+    """
+    if not 0.0 <= weight < 1.0:
+        raise ValueError(f"smoothing weight must lie in [0, 1), got {weight}")
+    raw = np.asarray(values, dtype=np.float64)
+    smoothed = np.full_like(raw, math.nan)
+    last, count = 0.0, 0
+    for i, value in enumerate(raw):
+        if not math.isfinite(value):
+            continue
+        last = weight * last + (1.0 - weight) * value
+        count += 1
+        smoothed[i] = last / (1.0 - weight**count)
+    return smoothed
+
+
+def group_runs(runs: Sequence[Run], group_by: Sequence[str] | None = None) -> dict[str, list[Run]]:
+    """Runs grouped by configuration, keyed by a readable label.
+
+    Args:
+        runs: the runs.
+        group_by: config keys that define a configuration (e.g.
+            ``["critic.fusion", "env.extended_obs"]``). ``None``: every key whose value
+            differs between the runs, except seeds, paths and logging options.
+
+    Returns:
+        ``label -> runs``, labels in first-seen order. A run without a known config is
+        its own group, labelled by its directory name.
+    """
+    keys = list(group_by) if group_by is not None else differing_keys(runs)
+    if not keys:
+        keys = [k for k in FALLBACK_LABEL_KEYS if any(k in run.config for run in runs)]
+    groups: dict[str, list[Run]] = defaultdict(list)
+    for run in runs:
+        if not run.config:
+            groups[run.path.name].append(run)
+            continue
+        label = ", ".join(f"{k.rsplit('.', 1)[-1]}={run.config.get(k)}" for k in keys)
+        groups[label or "runs"].append(run)
+    return dict(groups)
+
+
+def differing_keys(runs: Sequence[Run]) -> list[str]:
+    """Config keys whose values differ between runs (seeds and bookkeeping excluded).
+
+    Keys are compared within each game: runs of two games differ in every Table 3
+    value, so across games only ``env.name`` is reported, plus what varies inside a game.
+    """
+    by_env: dict[Any, list[Run]] = defaultdict(list)
+    for run in runs:
+        by_env[run.config.get("env.name")].append(run)
+    if len(by_env) > 1:
+        inside = {key for members in by_env.values() for key in differing_keys(members)}
+        return ["env.name", *sorted(inside)]
+    configured = [run.config for run in runs if run.config]
+    names = sorted({k for config in configured for k in config})
+    return [
+        name
+        for name in names
+        if name not in IGNORED_KEYS
+        and not name.startswith(IGNORED_PREFIXES)
+        and len({repr(config.get(name)) for config in configured}) > 1
+    ]
+
+
+@dataclass(frozen=True)
+class Curve:
+    """A group's mean curve over seeds with its 95% t interval (equal to the mean for one run)."""
+
+    steps: np.ndarray
+    mean: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    runs: int
+
+
+def aggregate(
+    runs: Sequence[Run], metric: str, smoothing: float = 0.8, confidence: float = 0.95
+) -> Curve | None:
+    """Smooth each run's ``metric``, align the runs on common steps, and average them.
+
+    Steps are the union of the runs' logged steps up to the shortest run's end; each
+    smoothed run is linearly interpolated there. ``None`` if no run logged ``metric``.
+    """
+    series = []
+    for run in runs:
+        if metric not in run.columns:
+            continue
+        smoothed = ema_smooth(run.columns[metric], smoothing)
+        finite = np.isfinite(smoothed)
+        if finite.any():
+            series.append((run.steps[finite], smoothed[finite]))
+    if not series:
+        return None
+    end = min(steps[-1] for steps, _ in series)
+    grid = np.unique(np.concatenate([steps[steps <= end] for steps, _ in series]))
+    values = np.stack([np.interp(grid, steps, curve) for steps, curve in series])
+    mean = values.mean(axis=0)
+    if len(series) < 2:
+        return Curve(grid, mean, mean, mean, 1)
+    half = np.asarray(t_half_width(values.std(axis=0, ddof=1), len(series), confidence))
+    return Curve(grid, mean, mean - half, mean + half, len(series))
+
+
+def panel_metrics(runs: Sequence[Run], leaves: Iterable[str] = PAPER_METRICS) -> list[str]:
+    """The logged columns of the paper's metrics: ``episode_length`` and ``<g>/<leaf>``."""
+    columns = {name for run in runs for name in run.columns}
+    panels = []
+    for leaf in leaves:
+        panels += sorted(c for c in columns if c == leaf or c.endswith(f"/{leaf}"))
+    return panels
+
+
+def final_values(runs: Sequence[Run], metric: str, fraction: float = 0.1) -> dict[Path, float]:
+    """Per run, the mean raw value of ``metric`` over the last ``fraction`` of its steps.
+
+    The window is ``step >= (1 - fraction) · last_step`` (raw, unsmoothed values, so
+    that the numbers do not depend on the display smoothing). Runs that never logged
+    ``metric`` are left out.
+
+    Examples:
+        >>> run = Run(Path("r"), {"step": np.arange(1.0, 11.0), "m": np.arange(10.0)})
+        >>> final_values([run], "m", fraction=0.2)
+        {PosixPath('r'): 8.0}
+    """
+    if not 0.0 < fraction <= 1.0:
+        raise ValueError(f"fraction must lie in (0, 1], got {fraction}")
+    values: dict[Path, float] = {}
+    for run in runs:
+        if metric not in run.columns:
+            continue
+        column, steps = run.columns[metric], run.steps
+        window = (steps >= (1.0 - fraction) * steps.max()) & np.isfinite(column)
+        if window.any():
+            values[run.path] = float(column[window].mean())
+    return values
+
+
+def final_values_by_group(
+    paths: Iterable[str | os.PathLike[str]],
+    metric: str,
+    fraction: float = 0.1,
+    group_by: Sequence[str] | None = None,
+) -> dict[str, list[float]]:
+    """:func:`final_values` of the runs under ``paths``, per configuration label.
+
+    Examples:
+        >>> by = final_values_by_group(["multirun/x"], "racket/cumulative_reward")  # doctest: +SKIP
+        >>> welch_t_test(by["fusion=max"], by["fusion=local"])  # doctest: +SKIP
+    """
+    groups = group_runs(load_runs(paths), group_by)
+    return {
+        label: list(final_values(members, metric, fraction).values())
+        for label, members in groups.items()
+    }
