@@ -53,3 +53,31 @@ def broadcast_to_value(signal: Tensor, value: Tensor, batch_dims: int, name: str
             f"{name} of shape {tuple(signal.shape)} does not broadcast to the values' "
             f"shape {tuple(value.shape)}"
         ) from None
+
+
+def resolve_time_dim(data: TensorDictBase, time_dim: int | None, default: int | None) -> int:
+    """The non-negative time dimension of ``data``, as TorchRL's value estimators choose it.
+
+    Args:
+        data: the batch, of batch size ``[*B, T]``.
+        time_dim: the caller's choice, if any (negative counts from the end).
+        default: the estimator's own choice, used when ``time_dim`` is ``None``.
+
+    Returns:
+        ``time_dim``, else ``default``, else the batch dimension named ``"time"``, else
+        the last batch dimension; made non-negative.
+
+    Examples:
+        >>> import torch
+        >>> from tensordict import TensorDict
+        >>> data = TensorDict({}, [2, 5])
+        >>> resolve_time_dim(data, None, None), resolve_time_dim(data, -2, None)
+        (1, 0)
+        >>> resolve_time_dim(data.refine_names("time", None), None, None)
+        0
+    """
+    chosen = time_dim if time_dim is not None else default
+    if chosen is None:
+        names = list(data.names)
+        chosen = names.index("time") if "time" in names else data.batch_dims - 1
+    return chosen % data.batch_dims if chosen < 0 else chosen

@@ -11,7 +11,6 @@ each step, the critic that was selected).
 
 from __future__ import annotations
 
-import contextlib
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -20,8 +19,9 @@ from tensordict import TensorDictBase
 from tensordict.nn import ProbabilisticTensorDictSequential, TensorDictModule, TensorDictSequential
 from tensordict.utils import NestedKey
 from torch import Tensor
-from torchrl.objectives import ClipPPOLoss
+from torchrl.objectives import AUTO_LOSS_MASK_KEYS, ClipPPOLoss, ValueEstimators
 from torchrl.objectives.utils import distance_loss
+from torchrl.objectives.value import ValueEstimatorBase
 
 from rlhc.modules import keys
 from rlhc.objectives.value import HierarchicalValueEstimator
@@ -40,15 +40,20 @@ class _CriticTerms(NamedTuple):
     explained_variance: Tensor
 
 
+#: Gamma and lambda of an estimator built without them (TorchRL's GAE defaults).
+DEFAULT_GAE_HYPERPARAMS: dict[str, float] = {"gamma": 0.99, "lmbda": 0.95}
+
+
 class HierarchicalPPOLoss(ClipPPOLoss):
     """``ClipPPOLoss`` whose critic loss trains a worker and a manager critic.
 
     ``loss_critic = c * (d(V_target, V_w) + d(V_target, V_m))`` where ``d`` is
     ``loss_critic_type`` and ``V_target`` the lambda-return of the fused value written
-    by the attached estimator. Everything else (clipping, entropy bonus, advantage
-    normalisation, reductions) is TorchRL's. Attach the estimator with
-    ``loss.value_estimator = HierarchicalValueEstimator(...)``, or build both with
-    :func:`make_ppo_loss`.
+    by the attached estimator. It is computed by :meth:`loss_critic`, the critic hook
+    that ``ClipPPOLoss.forward`` calls; everything else (clipping, entropy bonus,
+    advantage normalisation, reductions) is TorchRL's. Attach the estimator with
+    ``loss.make_value_estimator(HierarchicalValueEstimator(...))`` (or by assignment,
+    ``loss.value_estimator = ...``), or build both with :func:`make_ppo_loss`.
 
     Args:
         actor_network: the group's ``ProbabilisticActor``.
@@ -59,18 +64,22 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         critic_coeff: ``c``, the weight of the two critic terms.
         loss_critic_type: ``"l2"``, ``"l1"`` or ``"smooth_l1"``.
         **ppo_kwargs: forwarded to ``ClipPPOLoss`` (``clip_epsilon``, ``entropy_coeff``,
-            ``normalize_advantage``, ...); value clipping (``clip_value``) is not supported.
+            ``normalize_advantage``, ...); value clipping (``clip_value``) and
+            ``separate_losses`` are not supported.
 
     Output (``forward``): TorchRL's ``loss_objective``, ``loss_entropy``, ``entropy``,
-    ``kl_approx``, ``clip_fraction``, ``ESS``, ``max_ratio``, ``mean_ratio``, plus
-    ``loss_critic`` (the sum of the two critic terms) and detached diagnostics
-    ``loss_worker_critic``, ``loss_manager_critic`` (the two terms, which add up to
-    ``loss_critic``) and ``explained_variance`` (of the current fused value). Only
-    :data:`LOSS_KEYS` carry gradient.
+    ``kl_approx``, ``clip_fraction``, ``ESS``, ``max_ratio``, ``mean_ratio``,
+    ``loss_critic`` (the sum of the two critic terms) and ``explained_variance`` (of
+    the current fused value), plus detached diagnostics ``loss_worker_critic`` and
+    ``loss_manager_critic`` (the two terms, which add up to ``loss_critic``, reduced
+    as TorchRL reduces ``loss_critic``). Only :data:`LOSS_KEYS` carry gradient.
+
+    Raises:
+        ValueError: ``critic_coeff <= 0``, ``clip_value`` or ``separate_losses`` given.
     """
 
     @dataclass
-    class _AcceptedKeys(ClipPPOLoss._AcceptedKeys):
+    class _AcceptedKeys(ClipPPOLoss.default_keys):
         """TorchRL's PPO keys plus the two critics' outputs.
 
         Attributes:
@@ -84,6 +93,19 @@ class HierarchicalPPOLoss(ClipPPOLoss):
     default_keys = _AcceptedKeys
     tensor_keys: _AcceptedKeys
 
+    #: The keys this loss forwards to its :class:`HierarchicalValueEstimator`.
+    ESTIMATOR_KEYS: tuple[str, ...] = (
+        "advantage",
+        "value_target",
+        "value",
+        "reward",
+        "done",
+        "terminated",
+        "sample_log_prob",
+        "worker_value",
+        "manager_value",
+    )
+
     def __init__(
         self,
         actor_network: ProbabilisticTensorDictSequential,
@@ -96,6 +118,11 @@ class HierarchicalPPOLoss(ClipPPOLoss):
     ) -> None:
         if ppo_kwargs.get("clip_value"):
             raise ValueError("clip_value is not supported by HierarchicalPPOLoss")
+        if ppo_kwargs.get("separate_losses"):
+            raise ValueError(
+                "separate_losses is not supported by HierarchicalPPOLoss: both critics are "
+                "evaluated with their own parameters"
+            )
         if critic_coeff <= 0:
             raise ValueError(
                 f"critic_coeff must be > 0 (both critics must learn), got {critic_coeff}"
@@ -109,43 +136,84 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             loss_critic_type=loss_critic_type,
             **ppo_kwargs,
         )
-        # ClipPPOLoss would score a single value head; the two-critic term is computed
-        # in forward instead, so its own critic term is switched off here.
-        self._has_critic = False
+        # What the last loss_critic call computed, for forward's diagnostics (detached).
+        self._critic_split: tuple[Tensor, Tensor] | None = None
 
     def __setattr__(self, name: str, value: Any) -> None:
-        if name == "value_estimator":
-            # ``nn.Module.__setattr__`` files a module under its own name and never
-            # reaches LossModule's ``value_estimator`` setter (TorchRL 0.14), so
-            # ``loss.value_estimator = est`` would be silently ignored. Store it where
-            # the getter looks, and give it this loss's keys.
-            super().__setattr__("_value_estimator", value)
-            self._forward_value_estimator_keys()
+        if name == "value_estimator" and isinstance(value, ValueEstimatorBase):
+            # ``torch.nn.Module.__setattr__`` files a module under its own name and never
+            # reaches LossModule's ``value_estimator`` setter, so the assignment would be
+            # silently ignored: route it to the documented ``make_value_estimator``.
+            self.make_value_estimator(value)
             return
         super().__setattr__(name, value)
 
     @property
     def out_keys(self) -> list[str]:
         torchrl_keys = [key for key in super().out_keys if key != "loss_critic"]
-        return [
-            *torchrl_keys,
-            "loss_critic",
-            LOSS_WORKER_CRITIC,
-            LOSS_MANAGER_CRITIC,
-            EXPLAINED_VARIANCE,
-        ]
+        extra = ["loss_critic", LOSS_WORKER_CRITIC, LOSS_MANAGER_CRITIC, EXPLAINED_VARIANCE]
+        return list(dict.fromkeys([*torchrl_keys, *extra]))
 
     @out_keys.setter
     def out_keys(self, values: list[str]) -> None:
-        self._out_keys = values
+        ClipPPOLoss.out_keys.fset(self, values)
 
-    def _forward_value_estimator_keys(self, **kwargs: Any) -> None:
-        super()._forward_value_estimator_keys(**kwargs)
-        if isinstance(getattr(self, "_value_estimator", None), HierarchicalValueEstimator):
-            self._value_estimator.set_keys(
-                worker_value=self.tensor_keys.worker_value,
-                manager_value=self.tensor_keys.manager_value,
+    def make_value_estimator(
+        self, value_type: Any = None, **hyperparams: Any
+    ) -> HierarchicalPPOLoss:
+        """Attach a :class:`HierarchicalValueEstimator` and give it this loss's keys.
+
+        Args:
+            value_type: a :class:`HierarchicalValueEstimator` to attach; or ``None``,
+                ``ValueEstimators.GAE`` (TorchRL's default for PPO) or the class
+                :class:`HierarchicalValueEstimator`, to build one on this loss's two
+                critics from ``hyperparams`` (``gamma`` and ``lmbda`` default to 0.99
+                and 0.95, ``fusion`` to ``"max"``).
+            **hyperparams: constructor arguments of the estimator to build.
+
+        Returns:
+            This loss.
+
+        Raises:
+            ValueError: any other estimator (the loss needs both critics' values).
+        """
+        if isinstance(value_type, HierarchicalValueEstimator):
+            estimator = value_type
+        elif (
+            value_type is None
+            or value_type is HierarchicalValueEstimator
+            or (value_type == ValueEstimators.GAE)
+        ):
+            hyperparams.pop("device", None)  # passed by LossModule; buffers follow .to()
+            estimator = HierarchicalValueEstimator(
+                worker_value_network=self.critic_network[0],
+                manager_value_network=self.critic_network[1],
+                **{**DEFAULT_GAE_HYPERPARAMS, **hyperparams},
             )
+        else:
+            raise ValueError(
+                "HierarchicalPPOLoss estimates advantages with a HierarchicalValueEstimator "
+                f"(it needs both critics' values), got {value_type!r}"
+            )
+        super().make_value_estimator(estimator)
+        estimator.set_keys(**self._estimator_keys())
+        return self
+
+    def set_keys(self, **kwargs: Any) -> None:
+        """Set tensordict keys, as ``ClipPPOLoss.set_keys``, plus ``worker_value`` and
+        ``manager_value``; an attached estimator receives the new keys."""
+        super().set_keys(**kwargs)
+        if self._has_hierarchical_estimator():
+            self.value_estimator.set_keys(**self._estimator_keys())
+
+    def _has_hierarchical_estimator(self) -> bool:
+        # ``value_type`` is where LossModule.make_value_estimator records the class of
+        # the attached estimator (read here so as not to build TorchRL's default one).
+        value_type = getattr(self, "value_type", None)
+        return isinstance(value_type, type) and issubclass(value_type, HierarchicalValueEstimator)
+
+    def _estimator_keys(self) -> dict[str, NestedKey]:
+        return {name: getattr(self.tensor_keys, name) for name in self.ESTIMATOR_KEYS}
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         """The PPO losses and diagnostics on a batch (or minibatch) of data.
@@ -156,30 +224,33 @@ class HierarchicalPPOLoss(ClipPPOLoss):
                 batch, before splitting it into minibatches).
 
         Returns:
-            A TensorDict of scalars (see the class docstring).
+            A TensorDict of scalars (see the class docstring), or of per-sample terms
+            with ``reduction="none"``.
         """
         tensordict = tensordict.clone(False)
         if tensordict.get(self.tensor_keys.advantage, None) is None:
             # Run here (rather than inside ClipPPOLoss.forward) so that the value
-            # target lands in this copy, where the critic terms below read it.
+            # target lands in this copy, where the critic terms read it.
             with torch.no_grad():
                 self.value_estimator(tensordict)
-        td_out = super().forward(tensordict)
-        terms = self._critic_terms(tensordict)
-        td_out.set(
-            "loss_critic", self._reduce_loss(terms.worker + terms.manager, tensordict).squeeze(-1)
-        )
-        td_out.set(
-            LOSS_WORKER_CRITIC, self._reduce_loss(terms.worker.detach(), tensordict).squeeze(-1)
-        )
-        td_out.set(
-            LOSS_MANAGER_CRITIC, self._reduce_loss(terms.manager.detach(), tensordict).squeeze(-1)
-        )
-        td_out.set(EXPLAINED_VARIANCE, terms.explained_variance)
+        self._critic_split = None
+        td_out = super().forward(tensordict)  # calls self.loss_critic once
+        split, self._critic_split = self._critic_split, None
+        if split is None:
+            raise RuntimeError(
+                "ClipPPOLoss.forward did not call loss_critic; this TorchRL version is "
+                "not supported by HierarchicalPPOLoss"
+            )
+        worker, manager = split
+        td_out.set(LOSS_WORKER_CRITIC, self._reduce_like_torchrl(worker, tensordict))
+        td_out.set(LOSS_MANAGER_CRITIC, self._reduce_like_torchrl(manager, tensordict))
         return td_out
 
     def loss_critic(self, tensordict: TensorDictBase) -> tuple[Tensor, None, Tensor]:
-        """ClipPPOLoss's critic hook, for callers that use it directly.
+        """ClipPPOLoss's critic hook: both critics regressed on the fused value's target.
+
+        ``ClipPPOLoss.forward`` calls it, stores the first output as ``loss_critic``
+        (reduced) and the third as ``explained_variance``.
 
         Args:
             tensordict: data holding the value target.
@@ -189,7 +260,43 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             terms, no value-clip fraction, and the explained variance of ``V_hat``.
         """
         terms = self._critic_terms(tensordict)
+        self._critic_split = (terms.worker.detach(), terms.manager.detach())
         return terms.worker + terms.manager, None, terms.explained_variance
+
+    def _reduce_like_torchrl(self, loss: Tensor, tensordict: TensorDictBase) -> Tensor:
+        # ClipPPOLoss's reduction of a "loss_*" entry, after its documented contract:
+        # positions outside the validity masks (``loss_mask_key``) are zeroed, then
+        # ``reduction`` "none" keeps them (squeezing the feature dim), "sum" sums and
+        # "mean" averages over the valid ones.
+        mask = self._loss_mask(tensordict, loss)
+        if mask is not None:
+            loss = torch.where(mask, loss, torch.zeros_like(loss))
+        if self.reduction == "none":
+            return loss.squeeze(-1)
+        if self.reduction == "sum":
+            return loss.sum()
+        if mask is None:
+            return loss.mean()
+        return loss.sum() / mask.sum().clamp_min(1)
+
+    def _loss_mask(self, tensordict: TensorDictBase, loss: Tensor) -> Tensor | None:
+        mask_key = self.loss_mask_key
+        if mask_key is None:
+            return None
+        candidates = AUTO_LOSS_MASK_KEYS if mask_key == "auto" else (mask_key,)
+        mask = None
+        for key in candidates:
+            found = tensordict.get(key, None)
+            if found is None:
+                continue
+            # [B, T, 1] masks against [B, T, n, 1] terms: drop trailing singletons, then
+            # append dims until the mask broadcasts.
+            while found.ndim > loss.ndim and found.shape[-1] == 1:
+                found = found.squeeze(-1)
+            found = found.reshape(*found.shape, *(1,) * (loss.ndim - found.ndim))
+            found = found.expand_as(loss).bool()
+            mask = found if mask is None else mask & found
+        return mask
 
     def _critic_terms(self, tensordict: TensorDictBase) -> _CriticTerms:
         tk = self.tensor_keys
@@ -201,14 +308,10 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             )
         target = target.detach()
         # Evaluate on a selection so that the values with gradient are never written
-        # into the caller's data.
+        # into the caller's data. The critics run with their own parameters, which are
+        # the very tensors ClipPPOLoss holds (and the optimiser updates).
         inputs = tensordict.select(*self.critic_network.in_keys, strict=False)
-        with (
-            self.critic_network_params.to_module(self.critic_network, preserve_module_state=False)
-            if self.functional
-            else contextlib.nullcontext()
-        ):
-            values = self.critic_network(inputs)
+        values = self.critic_network(inputs)
         worker_value = values.get(tk.worker_value)
         manager_value = values.get(tk.manager_value)
         worker = self.critic_coeff * distance_loss(target, worker_value, self.loss_critic_type)
@@ -306,14 +409,16 @@ def make_ppo_loss(
         worker_value=(group, keys.WORKER_VALUE),
         manager_value=(group, keys.MANAGER_VALUE),
     )
-    loss.value_estimator = HierarchicalValueEstimator(
-        worker_value_network=worker_critic,
-        manager_value_network=manager_critic,
-        gamma=gamma,
-        lmbda=lmbda,
-        fusion=fusion,
-        weight=weight,
-        manager_interval=manager_interval,
-        group=group,
+    loss.make_value_estimator(
+        HierarchicalValueEstimator(
+            worker_value_network=worker_critic,
+            manager_value_network=manager_critic,
+            gamma=gamma,
+            lmbda=lmbda,
+            fusion=fusion,
+            weight=weight,
+            manager_interval=manager_interval,
+            group=group,
+        )
     )
     return loss

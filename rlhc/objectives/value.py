@@ -1,42 +1,268 @@
-"""``HierarchicalValueEstimator``: TorchRL's GAE on the fused value of two critics."""
+"""``HierarchicalValueEstimator``: TorchRL's GAE on the fused value of two critics.
+
+Two public pieces, built only on TorchRL's and tensordict's public API:
+
+* :class:`FusedValue`, a :class:`~tensordict.nn.TensorDictModuleBase` that runs the
+  worker and the manager critic and writes their fused value ``V_hat`` (and which
+  critic it came from). It is an ordinary TorchRL value network: it can be handed to
+  TorchRL's :class:`~torchrl.objectives.value.GAE` as ``value_network``.
+* :class:`HierarchicalValueEstimator`, a subclass of TorchRL's
+  :class:`~torchrl.objectives.value.GAE` that evaluates :class:`FusedValue` on the
+  root and ``"next"`` observations itself (so the critics' own outputs stay in the
+  data), then lets the stock ``GAE.forward`` run on the fused values, as GAE does
+  whenever it is built with ``value_network=None``.
+"""
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 
 import torch
-from tensordict import TensorDictBase
-from tensordict.nn import TensorDictModule, dispatch
+from tensordict import TensorDict, TensorDictBase
+from tensordict.nn import TensorDictModule, TensorDictModuleBase, dispatch, set_skip_existing
 from tensordict.utils import NestedKey
 from torch import Tensor
-from torchrl.objectives.value.advantages import (
-    ValueEstimatorBase,
-    _self_set_grad_enabled,
-    _self_set_skip_existing,
-)
+from torchrl.objectives.value import GAE
 
 from rlhc.modules import keys
-from rlhc.objectives._data import as_tuple, broadcast_to_value, require
+from rlhc.objectives._data import as_tuple, broadcast_to_value, require, resolve_time_dim
 from rlhc.objectives.functional import (
     check_fusion,
     check_manager_interval,
     fuse_values,
-    hierarchical_gae,
     manager_consulted_mask,
 )
 
 
-class HierarchicalValueEstimator(ValueEstimatorBase):
+def fuse_at_steps(
+    data: TensorDictBase,
+    worker_value: Tensor,
+    manager_value: Tensor,
+    *,
+    fusion: str,
+    weight: float = 0.5,
+    manager_interval: int = 1,
+    step_count_key: NestedKey = keys.STEP_COUNT,
+    under: tuple[str, ...] = (),
+) -> tuple[Tensor, Tensor]:
+    """Fuse two value tensors at the steps of ``data`` (temporal scaling included).
+
+    With ``manager_interval = k > 1`` the manager is consulted only where the
+    ``step_count`` of ``data`` is a multiple of ``k``; elsewhere ``V_hat = V_w``.
+
+    Args:
+        data: the (root or ``"next"``) data the values belong to; read for
+            ``step_count_key`` only, and only when ``manager_interval > 1``.
+        worker_value: ``V_w`` on that data, ``[*B, n_agents, 1]``.
+        manager_value: ``V_m`` on that data, the same shape.
+        fusion: one of :data:`~rlhc.objectives.functional.FUSIONS`.
+        weight: the manager's weight in ``"weighted"`` fusion.
+        manager_interval: consult the manager every ``k >= 1`` steps.
+        step_count_key: the episode step counter (shared by the agents, ``[*B, 1]``).
+        under: where ``data`` sits in the caller's data, for error messages.
+
+    Returns:
+        ``(fused_value, manager_share)``, as :func:`~rlhc.objectives.functional.fuse_values`.
+
+    Raises:
+        KeyError: ``manager_interval > 1`` and the step counter is missing.
+
+    Examples:
+        >>> from tensordict import TensorDict
+        >>> data = TensorDict({"step_count": torch.tensor([[0], [1]])}, [2])
+        >>> worker, manager = torch.zeros(2, 3, 1), torch.ones(2, 3, 1)
+        >>> fused, share = fuse_at_steps(data, worker, manager, fusion="max", manager_interval=2)
+        >>> fused[:, 0, 0]  # the manager is consulted at step 0 only
+        tensor([1., 0.])
+    """
+    consulted = None
+    if manager_interval > 1:
+        # Temporal scaling: the manager speaks at steps 0, k, 2k, ... of each episode.
+        step_count = require(data, step_count_key, "the episode step counter", under=under)
+        consulted = manager_consulted_mask(
+            broadcast_to_value(step_count, worker_value, data.batch_dims, "step_count"),
+            manager_interval,
+        )
+    return fuse_values(
+        worker_value, manager_value, fusion=fusion, weight=weight, manager_consulted=consulted
+    )
+
+
+class FusedValue(TensorDictModuleBase):
+    """The RLHC value network: a worker critic, a manager critic and their fusion.
+
+    Reads the two critics' inputs (and ``step_count`` when ``manager_interval > 1``),
+    and writes ``worker_value`` (``V_w``), ``manager_value`` (``V_m``), ``value``
+    (the fused ``V_hat``, per agent and per step) and ``manager_selected`` (the share
+    of ``V_hat`` taken from ``V_m``). Being a plain TensorDict module, it can serve as
+    the ``value_network`` of TorchRL's :class:`~torchrl.objectives.value.GAE`;
+    :class:`HierarchicalValueEstimator` builds one from its keys with
+    :meth:`HierarchicalValueEstimator.fused_value`.
+
+    Args:
+        worker_value_network: ``V_w``, writing ``worker_value_key``.
+        manager_value_network: ``V_m``, writing ``manager_value_key``.
+
+    Keyword Args:
+        fusion: ``"local"``, ``"manager"``, ``"max"`` (RLHC), ``"mean"`` or ``"weighted"``.
+        weight: the manager's weight ``w`` in ``"weighted"`` fusion.
+        manager_interval: consult the manager every ``k >= 1`` steps.
+        worker_value_key: the worker critic's output.
+        manager_value_key: the manager critic's output.
+        value_key: where ``V_hat`` is written.
+        manager_selected_key: where the manager's share of ``V_hat`` is written.
+        step_count_key: the episode step counter, read when ``manager_interval > 1``.
+
+    Raises:
+        ValueError: unknown ``fusion``, ``weight`` outside ``[0, 1]`` or
+            ``manager_interval < 1``.
+
+    Examples:
+        >>> from tensordict import TensorDict
+        >>> from tensordict.nn import TensorDictModule
+        >>> worker = TensorDictModule(torch.nn.Linear(3, 1), ["obs"], ["worker_value"])
+        >>> manager = TensorDictModule(torch.nn.Linear(5, 1), ["mobs"], ["manager_value"])
+        >>> fused = FusedValue(worker, manager, fusion="max")
+        >>> td = fused(TensorDict({"obs": torch.randn(4, 3), "mobs": torch.randn(4, 5)}, [4]))
+        >>> bool((td["state_value"] == td["worker_value"].maximum(td["manager_value"])).all())
+        True
+    """
+
+    def __init__(
+        self,
+        worker_value_network: TensorDictModule,
+        manager_value_network: TensorDictModule,
+        *,
+        fusion: str = "max",
+        weight: float = 0.5,
+        manager_interval: int = 1,
+        worker_value_key: NestedKey = keys.WORKER_VALUE,
+        manager_value_key: NestedKey = keys.MANAGER_VALUE,
+        value_key: NestedKey = keys.STATE_VALUE,
+        manager_selected_key: NestedKey = keys.MANAGER_SELECTED,
+        step_count_key: NestedKey = keys.STEP_COUNT,
+    ) -> None:
+        check_fusion(fusion, weight)
+        check_manager_interval(manager_interval)
+        super().__init__()
+        self.worker_value_network = worker_value_network
+        self.manager_value_network = manager_value_network
+        self.fusion = fusion
+        self.weight = float(weight)
+        self.manager_interval = manager_interval
+        self.worker_value_key = worker_value_key
+        self.manager_value_key = manager_value_key
+        self.value_key = value_key
+        self.manager_selected_key = manager_selected_key
+        self.step_count_key = step_count_key
+        in_keys = [*worker_value_network.in_keys, *manager_value_network.in_keys]
+        if manager_interval > 1:
+            in_keys.append(step_count_key)
+        self.in_keys = list(dict.fromkeys(in_keys))
+        self.out_keys = [worker_value_key, manager_value_key, value_key, manager_selected_key]
+
+    def require_inputs(self, data: TensorDictBase, *, under: tuple[str, ...] = ()) -> None:
+        """Raise a ``KeyError`` naming the first input of this module missing from ``data``.
+
+        Args:
+            data: the data about to be evaluated.
+            under: where ``data`` sits in the caller's data (e.g. ``("next",)``), so
+                that the message names the full key.
+        """
+        for network, key in (
+            (self.worker_value_network, self.worker_value_key),
+            (self.manager_value_network, self.manager_value_key),
+        ):
+            for in_key in network.in_keys:
+                require(data, in_key, f"an input of the critic writing {key!r}", under=under)
+        if self.manager_interval > 1:
+            require(data, self.step_count_key, "the episode step counter", under=under)
+
+    def critic_values(self, data: TensorDictBase) -> tuple[Tensor, Tensor]:
+        """Run both critics on ``data`` (writing their outputs into it).
+
+        Returns:
+            ``(V_w, V_m)``, each ``[*B, n_agents, 1]``.
+
+        Raises:
+            KeyError: a critic did not write its output key.
+            ValueError: the two values have different shapes.
+        """
+        outputs = []
+        for network, key in (
+            (self.worker_value_network, self.worker_value_key),
+            (self.manager_value_network, self.manager_value_key),
+        ):
+            value = network(data).get(key, None)
+            if value is None:
+                raise KeyError(
+                    f"the critic did not write {key!r}; its out_keys are {network.out_keys}"
+                )
+            outputs.append(value)
+        worker_value, manager_value = outputs
+        if worker_value.shape != manager_value.shape:
+            raise ValueError(
+                f"worker value {self.worker_value_key!r} has shape {tuple(worker_value.shape)} "
+                f"but manager value {self.manager_value_key!r} has shape "
+                f"{tuple(manager_value.shape)}; both critics must output one value per agent, "
+                "[*B, T, n_agents, 1]"
+            )
+        return worker_value, manager_value
+
+    def fuse(
+        self, data: TensorDictBase, worker_value: Tensor, manager_value: Tensor
+    ) -> tuple[Tensor, Tensor]:
+        """Fuse two value tensors at the steps of ``data`` (see :func:`fuse_at_steps`)."""
+        return fuse_at_steps(
+            data,
+            worker_value,
+            manager_value,
+            fusion=self.fusion,
+            weight=self.weight,
+            manager_interval=self.manager_interval,
+            step_count_key=self.step_count_key,
+        )
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        """Write ``V_w``, ``V_m``, the fused ``V_hat`` and the manager's share.
+
+        Args:
+            tensordict: data holding the critics' inputs.
+
+        Returns:
+            ``tensordict``, updated in place.
+
+        Raises:
+            KeyError: an input is missing (the message names it).
+            ValueError: the critics' values have different shapes.
+        """
+        self.require_inputs(tensordict)
+        worker_value, manager_value = self.critic_values(tensordict)
+        fused, share = self.fuse(tensordict, worker_value, manager_value)
+        tensordict.set(self.value_key, fused)
+        tensordict.set(self.manager_selected_key, share)
+        return tensordict
+
+    def extra_repr(self) -> str:
+        return (
+            f"fusion={self.fusion!r}, weight={self.weight}, "
+            f"manager_interval={self.manager_interval}"
+        )
+
+
+class HierarchicalValueEstimator(GAE):
     """Generalized advantage estimation on the fused value of a worker and a manager critic.
 
     RLHC (Cao & Lin, arXiv 1902.03079) computes the PPO advantage of every
     worker from ``V_hat = max(V_w(o_w), V_m(o_m))``, element-wise per agent and per
-    step, used at ``t`` and at the bootstrap ``t + 1``. This estimator calls both
-    critics on the root and ``"next"`` observations, fuses them with
-    :func:`~rlhc.objectives.functional.fuse_values` and runs TorchRL's vectorised GAE
-    on the result (:func:`~rlhc.objectives.functional.hierarchical_gae`). Truncated
-    episodes bootstrap, terminated ones do not, and a done at one agent never leaks
-    into another agent's trace.
+    step, used at ``t`` and at the bootstrap ``t + 1``. This estimator evaluates
+    :class:`FusedValue` (both critics and their fusion) on the root and ``"next"``
+    observations, then runs TorchRL's :class:`~torchrl.objectives.value.GAE` (of which
+    it is a subclass, built with ``value_network=None`` so that GAE reads the fused
+    values from the data) with its vectorised kernel. Truncated episodes bootstrap,
+    terminated ones do not, and a done at one agent never leaks into another agent's
+    trace.
 
     ``fusion="local"`` is plain PPO (it equals TorchRL's :class:`~torchrl.objectives.value.GAE`
     on the worker critic); ``"manager"``, ``"mean"`` and ``"weighted"`` are the paper's
@@ -71,7 +297,8 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
 
     The critics are borrowed, not owned (as TorchRL's ``GAE`` does with its value
     network): the loss and the trainer hold their parameters, so attaching the
-    estimator to a loss lists no parameter twice.
+    estimator to a loss lists no parameter twice, and its ``state_dict`` holds only
+    ``gamma`` and ``lmbda``.
 
     Keys (all configurable with :meth:`set_keys`; nested under ``group`` by default):
     reads ``("next", reward|done|terminated)``, ``step_count`` and
@@ -80,7 +307,9 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
     ``"state_value"``), ``advantage``, ``value_target`` and ``manager_selected``
     (the share of ``V_hat`` taken from the manager critic: in ``"max"`` mode 1 where
     the manager's critic wins, so its mean is the share of steps it wins). The
-    critics' values of the next observations are left under ``"next"`` too.
+    critics' values of the next observations are left under ``"next"`` too. The
+    reward, done and terminated flags may be per agent (``[*B, T, n_g, 1]``) or
+    shared by the agents (``[*B, T, 1]``).
 
     Examples:
         >>> import torch
@@ -180,24 +409,67 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
         check_fusion(fusion, weight)
         check_manager_interval(manager_interval)
         super().__init__(
-            value_network=None, differentiable=differentiable, skip_existing=skip_existing
+            gamma=torch.as_tensor(gamma, dtype=torch.float32).clone(),
+            lmbda=torch.as_tensor(lmbda, dtype=torch.float32).clone(),
+            # GAE reads V_hat(s_t) and V_hat(s_{t+1}) from the data, where forward puts them.
+            value_network=None,
+            differentiable=differentiable,
+            vectorized=True,
+            skip_existing=skip_existing,
+            time_dim=time_dim,
         )
-        # Borrowed, not registered as submodules (see the class docstring).
-        self.__dict__["worker_value_network"] = worker_value_network
-        self.__dict__["manager_value_network"] = manager_value_network
-        self.register_buffer("gamma", torch.as_tensor(gamma, dtype=torch.float32).clone())
-        self.register_buffer("lmbda", torch.as_tensor(lmbda, dtype=torch.float32).clone())
+        # A tuple, which torch.nn.Module does not register: the critics are borrowed.
+        self._critics = (worker_value_network, manager_value_network)
         self.fusion = fusion
         self.weight = float(weight)
         self.manager_interval = manager_interval
         self.group = group
-        self.time_dim = time_dim
         if group is not None:
             defaults = self.default_keys()
             self.set_keys(**{name: (group, getattr(defaults, name)) for name in self.GROUP_KEYS})
 
-    worker_value_network: TensorDictModule
-    manager_value_network: TensorDictModule
+    @property
+    def critics(self) -> tuple[TensorDictModule, TensorDictModule]:
+        """``(worker_value_network, manager_value_network)``, borrowed, not registered.
+
+        The estimator's ``parameters()`` and ``state_dict()`` do not list the critics'
+        parameters (the loss and the trainer own them).
+        """
+        return self._critics
+
+    @property
+    def worker_value_network(self) -> TensorDictModule:
+        """``V_w``, the worker critic (borrowed)."""
+        return self.critics[0]
+
+    @property
+    def manager_value_network(self) -> TensorDictModule:
+        """``V_m``, the manager critic (borrowed)."""
+        return self.critics[1]
+
+    def fused_value(self) -> FusedValue:
+        """The two critics and their fusion as one TensorDict module, on this estimator's keys.
+
+        Built anew at each call (from the current :attr:`tensor_keys`), never
+        registered as a submodule.
+
+        Returns:
+            A :class:`FusedValue` writing ``worker_value``, ``manager_value``, ``value``
+            and ``manager_selected``; usable as the ``value_network`` of TorchRL's GAE.
+        """
+        tk = self.tensor_keys
+        return FusedValue(
+            self.worker_value_network,
+            self.manager_value_network,
+            fusion=self.fusion,
+            weight=self.weight,
+            manager_interval=self.manager_interval,
+            worker_value_key=tk.worker_value,
+            manager_value_key=tk.manager_value,
+            value_key=tk.value,
+            manager_selected_key=tk.manager_selected,
+            step_count_key=tk.step_count,
+        )
 
     @property
     def in_keys(self) -> list[NestedKey]:
@@ -226,8 +498,6 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
             tk.manager_selected,
         ]
 
-    @_self_set_skip_existing
-    @_self_set_grad_enabled
     @dispatch
     def forward(
         self,
@@ -265,46 +535,51 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
                 f"expected data of batch [*B, T], got batch_size {tuple(tensordict.batch_size)}"
             )
         tk = self.tensor_keys
-        time_dim = self._get_time_dim(time_dim, tensordict)
+        fused_value = self.fused_value()
         next_td = require(tensordict, "next", "the step's next-state data")
-        worker_value, manager_value = self._critic_values(tensordict, grad=True)
-        next_worker_value, next_manager_value = self._critic_values(
-            next_td, grad=False, under=("next",)
+        if not isinstance(next_td, TensorDictBase):
+            raise TypeError(f"'next' must hold a TensorDict, got {type(next_td).__name__}")
+        fused_value.require_inputs(tensordict)
+        fused_value.require_inputs(next_td, under=("next",))
+        signals = [
+            (require(next_td, key, meaning, under=("next",)), name)
+            for key, meaning, name in (
+                (tk.reward, "the reward of step t", "reward"),
+                (tk.done, "did the episode end after step t", "done"),
+                (tk.terminated, "did it end without a future", "terminated"),
+            )
+        ]
+        skip = (
+            set_skip_existing(self.skip_existing)
+            if self.skip_existing is not None
+            else contextlib.nullcontext()
         )
+        with skip:
+            with torch.set_grad_enabled(self.differentiable):
+                fused_value(tensordict)
+            # The bootstrap V_hat(s_{t+1}) never carries gradient (as in TorchRL's GAE).
+            # A shallow copy keeps V_hat(s_{t+1}) out of the data; the critics' own
+            # values are copied back under "next".
+            with torch.no_grad():
+                next_values = fused_value(next_td.copy())
+        next_td.update(next_values.select(tk.worker_value, tk.manager_value))
 
-        reward = require(next_td, tk.reward, "the reward of step t", under=("next",))
-        done = require(next_td, tk.done, "did the episode end after step t", under=("next",))
-        terminated = require(next_td, tk.terminated, "did it end without a future", under=("next",))
+        value = tensordict.get(tk.value)
         reward, done, terminated = (
-            broadcast_to_value(signal, worker_value, tensordict.batch_dims, name)
-            for signal, name in ((reward, "reward"), (done, "done"), (terminated, "terminated"))
+            broadcast_to_value(signal, value, tensordict.batch_dims, name)
+            for signal, name in signals
         )
-        consulted = self._manager_consulted(tensordict, worker_value, tensordict.batch_dims)
-        next_consulted = self._manager_consulted(
-            next_td, worker_value, tensordict.batch_dims, under=("next",)
-        )
-        gamma = self.gamma.to(reward.device)
-        lmbda = self.lmbda.to(reward.device)
-        estimate = hierarchical_gae(
-            gamma,
-            lmbda,
-            worker_value=worker_value,
-            manager_value=manager_value,
-            next_worker_value=next_worker_value,
-            next_manager_value=next_manager_value,
-            reward=reward,
-            done=done,
-            terminated=terminated,
-            time_dim=time_dim,
-            fusion=self.fusion,
-            weight=self.weight,
-            manager_consulted=consulted,
-            next_manager_consulted=next_consulted,
-        )
-        tensordict.set(tk.value, estimate.fused_value)
-        tensordict.set(tk.manager_selected, estimate.manager_share)
-        tensordict.set(tk.advantage, estimate.advantage)
-        tensordict.set(tk.value_target, estimate.value_target)
+        # Stock GAE on exactly what it needs, per agent: the fused values at t and
+        # t + 1, and the signals broadcast to the agents.
+        gae_inputs = TensorDict(batch_size=tensordict.batch_size, device=tensordict.device)
+        gae_inputs.set(tk.value, value)
+        gae_inputs.set(("next", *as_tuple(tk.value)), next_values.get(tk.value))
+        gae_inputs.set(("next", *as_tuple(tk.reward)), reward)
+        gae_inputs.set(("next", *as_tuple(tk.done)), done.bool())
+        gae_inputs.set(("next", *as_tuple(tk.terminated)), terminated.bool())
+        super().forward(gae_inputs, time_dim=resolve_time_dim(tensordict, time_dim, self.time_dim))
+        tensordict.set(tk.advantage, gae_inputs.get(tk.advantage))
+        tensordict.set(tk.value_target, gae_inputs.get(tk.value_target))
         return tensordict
 
     def fuse(
@@ -322,66 +597,30 @@ class HierarchicalValueEstimator(ValueEstimatorBase):
         Returns:
             ``(fused_value, manager_share)``, as :func:`~rlhc.objectives.functional.fuse_values`.
         """
-        consulted = self._manager_consulted(tensordict, worker_value, tensordict.batch_dims)
-        return fuse_values(
+        return fuse_at_steps(
+            tensordict,
             worker_value,
             manager_value,
             fusion=self.fusion,
             weight=self.weight,
-            manager_consulted=consulted,
+            manager_interval=self.manager_interval,
+            step_count_key=self.tensor_keys.step_count,
         )
 
     def value_estimate(
         self,
         tensordict: TensorDictBase,
+        params: TensorDictBase | None = None,
         target_params: TensorDictBase | None = None,
-        next_value: Tensor | None = None,
+        time_dim: int | None = None,
         **kwargs: object,
     ) -> Tensor:
-        """The lambda-return on ``V_hat`` (the critics' regression target)."""
-        return self.forward(tensordict.copy()).get(self.tensor_keys.value_target)
+        """The lambda-return on ``V_hat`` (the critics' regression target).
 
-    def _manager_consulted(
-        self, data: TensorDictBase, value: Tensor, batch_dims: int, under: tuple[str, ...] = ()
-    ) -> Tensor | None:
-        # Temporal scaling: the manager speaks at steps 0, k, 2k, ... of each episode.
-        if self.manager_interval == 1:
-            return None
-        step_count = require(
-            data, self.tensor_keys.step_count, "the episode step counter", under=under
-        )
-        return manager_consulted_mask(
-            broadcast_to_value(step_count, value, batch_dims, "step_count"),
-            self.manager_interval,
-        )
-
-    def _critic_values(
-        self, data: TensorDictBase, *, grad: bool, under: tuple[str, ...] = ()
-    ) -> tuple[Tensor, Tensor]:
-        tk = self.tensor_keys
-        outputs = []
-        for network, key in (
-            (self.worker_value_network, tk.worker_value),
-            (self.manager_value_network, tk.manager_value),
-        ):
-            for in_key in network.in_keys:
-                require(data, in_key, f"an input of the critic writing {key!r}", under=under)
-            # The bootstrap V_hat(s_{t+1}) never carries gradient (as in TorchRL's GAE).
-            with torch.set_grad_enabled(grad and torch.is_grad_enabled()):
-                value = network(data).get(key, None)
-            if value is None:
-                raise KeyError(
-                    f"the critic did not write {key!r}; its out_keys are {network.out_keys}"
-                )
-            outputs.append(value)
-        worker_value, manager_value = outputs
-        if worker_value.shape != manager_value.shape:
-            raise ValueError(
-                f"worker value {tk.worker_value!r} has shape {tuple(worker_value.shape)} but "
-                f"manager value {tk.manager_value!r} has shape {tuple(manager_value.shape)}; "
-                "both critics must output one value per agent, [*B, T, n_agents, 1]"
-            )
-        return worker_value, manager_value
+        ``tensordict`` is left untouched (the estimate runs on a shallow copy).
+        """
+        out = self.forward(tensordict.copy(), time_dim=time_dim)
+        return out.get(self.tensor_keys.value_target)
 
     def extra_repr(self) -> str:
         return (

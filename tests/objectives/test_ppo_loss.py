@@ -214,3 +214,90 @@ def test_value_clipping_is_refused(networks: Callable) -> None:
     actor, worker, manager = networks()
     with pytest.raises(ValueError, match="clip_value is not supported"):
         HierarchicalPPOLoss(actor, worker, manager, clip_value=0.2)
+
+
+# --- TorchRL's public hooks -------------------------------------------------------------
+
+
+def test_state_dict_keys_are_stable(networks: Callable) -> None:
+    # Checkpoints hold loss.state_dict(): the estimator adds gamma and lambda only.
+    loss = build_loss(networks)
+    names = list(loss.state_dict())
+    assert [n for n in names if n.startswith("_value_estimator.")] == [
+        "_value_estimator.gamma",
+        "_value_estimator.lmbda",
+    ]
+    assert any(n.startswith("critic_network_params.") for n in names)
+    assert any(n.startswith("actor_network_params.") for n in names)
+    assert {"critic_coeff", "entropy_coeff", "clip_epsilon"} <= set(names)
+    rebuilt = build_loss(networks)
+    rebuilt.load_state_dict(loss.state_dict(), strict=True)
+
+
+@pytest.mark.parametrize("reduction", ["none", "sum", "mean"])
+def test_reductions_of_the_critic_terms(networks: Callable, reduction: str) -> None:
+    loss = build_loss(networks)
+    data = collected(loss)
+    with torch.no_grad():
+        loss.value_estimator(data)
+    flat = data.reshape(-1)
+    loss.reduction = reduction
+    out = loss(flat)
+    expected_shape = (flat.numel(), 4) if reduction == "none" else ()
+    for key in ("loss_critic", "loss_worker_critic", "loss_manager_critic", "loss_objective"):
+        assert out[key].shape == expected_shape, (key, out[key].shape)
+    assert_close(out["loss_critic"], out["loss_worker_critic"] + out["loss_manager_critic"])
+    loss.reduction = "mean"
+    mean = loss(flat)
+    totals = {"none": flat.numel() * 4, "sum": flat.numel() * 4, "mean": 1}
+    for key in ("loss_critic", "loss_worker_critic", "loss_manager_critic"):
+        assert_close(out[key].sum() / totals[reduction], mean[key])
+
+
+def test_masked_positions_are_left_out_of_every_critic_term(networks: Callable) -> None:
+    loss = build_loss(networks)
+    data = collected(loss)
+    with torch.no_grad():
+        loss.value_estimator(data)
+    flat = data.reshape(-1)
+    mask = torch.zeros(flat.numel(), 1, dtype=torch.bool)
+    mask[: flat.numel() // 2] = True
+    flat["collector", "mask"] = mask  # TorchRL's padding mask, found by loss_mask_key="auto"
+    out = loss(flat)
+    kept = loss(flat[: flat.numel() // 2].exclude("collector"))
+    for key in ("loss_critic", "loss_worker_critic", "loss_manager_critic"):
+        assert_close(out[key], kept[key])
+
+
+def test_make_value_estimator_builds_a_hierarchical_one(networks: Callable) -> None:
+    actor, worker, manager = networks()
+    loss = HierarchicalPPOLoss(actor, worker, manager)
+    loss.make_value_estimator(gamma=0.9, fusion="mean")
+    estimator = loss.value_estimator
+    assert isinstance(estimator, HierarchicalValueEstimator)
+    assert estimator.fusion == "mean" and float(estimator.gamma) == pytest.approx(0.9)
+    assert estimator.critics == (worker, manager)
+    # TorchRL's default (built on first use) is a hierarchical estimator too.
+    fresh = HierarchicalPPOLoss(*networks())
+    assert isinstance(fresh.value_estimator, HierarchicalValueEstimator)
+
+
+def test_other_estimators_are_refused(networks: Callable) -> None:
+    from torchrl.objectives import ValueEstimators
+
+    loss = build_loss(networks)
+    with pytest.raises(ValueError, match="needs both critics' values"):
+        loss.make_value_estimator(ValueEstimators.TD0)
+
+
+def test_keys_set_after_attaching_reach_the_estimator(networks: Callable) -> None:
+    loss = build_loss(networks)
+    loss.set_keys(worker_value=(GROUP, "v_w"), advantage=(GROUP, "adv"))
+    assert loss.value_estimator.tensor_keys.worker_value == (GROUP, "v_w")
+    assert loss.value_estimator.tensor_keys.advantage == (GROUP, "adv")
+
+
+def test_separate_losses_is_refused(networks: Callable) -> None:
+    actor, worker, manager = networks()
+    with pytest.raises(ValueError, match="separate_losses is not supported"):
+        HierarchicalPPOLoss(actor, worker, manager, separate_losses=True)

@@ -346,3 +346,55 @@ def test_bad_constructor_arguments(networks: Callable, kwargs: dict, message: st
     _, worker, manager = networks()
     with pytest.raises(ValueError, match=message):
         estimator(worker, manager, **kwargs)
+
+
+# --- built from TorchRL's public pieces ------------------------------------------------
+
+
+@pytest.mark.parametrize("interval", [1, 3])
+@pytest.mark.parametrize("deactivate_vmap", [False, True], ids=["vmap", "loop"])
+def test_fused_value_is_a_value_network_for_torchrl_gae(
+    networks: Callable, interval: int, deactivate_vmap: bool
+) -> None:
+    # The estimator's FusedValue, handed to TorchRL's stock GAE, gives the same estimate.
+    _, worker, manager = networks()
+    est = estimator(worker, manager, fusion="max", manager_interval=interval)
+    data = est(make_batch())
+    gae = GAE(
+        gamma=0.99,
+        lmbda=0.95,
+        value_network=est.fused_value(),
+        vectorized=True,
+        deactivate_vmap=deactivate_vmap,
+    )
+    gae.set_keys(
+        value=(GROUP, "state_value"),
+        advantage=(GROUP, "torchrl_advantage"),
+        value_target=(GROUP, "torchrl_value_target"),
+        reward=(GROUP, "reward"),
+        done=(GROUP, "done"),
+        terminated=(GROUP, "terminated"),
+    )
+    stock = gae(make_batch())
+    assert_close(stock[GROUP, "torchrl_advantage"], data[GROUP, "advantage"], rtol=0, atol=0)
+    assert_close(stock[GROUP, "torchrl_value_target"], data[GROUP, "value_target"], rtol=0, atol=0)
+
+
+def test_estimator_is_torchrl_gae_and_owns_no_critic(networks: Callable) -> None:
+    _, worker, manager = networks()
+    est = estimator(worker, manager)
+    assert isinstance(est, GAE)
+    assert est.critics == (worker, manager)
+    assert list(est.state_dict()) == ["gamma", "lmbda"]
+    assert list(est.parameters()) == []
+
+
+def test_time_dim_named_time(networks: Callable) -> None:
+    # [T, N] data with its time dim named: the same estimate as the [N, T] layout.
+    _, worker, manager = networks()
+    data = make_batch()
+    estimator(worker, manager)(data)
+    transposed = make_batch().transpose(0, 1)
+    transposed.refine_names("time", None)
+    estimator(worker, manager)(transposed)
+    assert_close(transposed[GROUP, "advantage"].transpose(0, 1), data[GROUP, "advantage"])
