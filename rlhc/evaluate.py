@@ -22,8 +22,9 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
 from rlhc.evaluation.commands import run_elo, run_match
-from rlhc.evaluation.config import EvaluateConfig, register_evaluate_configs, validate_evaluate
+from rlhc.evaluation.config import EvaluateConfig, register_evaluate_configs
 from rlhc.trainer import seed_everything
+from rlhc.validation import validate_evaluate
 
 register_evaluate_configs()
 

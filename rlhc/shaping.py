@@ -25,6 +25,7 @@ from tensordict import TensorDictBase
 from torchrl.envs import Transform
 
 from rlhc.envs.keys import REWARD, TERMINATED
+from rlhc.envs.registry import game_spec, games
 
 Potential = Callable[[], dict[str, np.ndarray]]
 
@@ -47,11 +48,18 @@ def game_potential(game: object) -> Potential:
         ValueError: the game has no potential (names it and the games that do).
     """
     name = getattr(game, "name", type(game).__name__)
-    if name == "soccer":
-        from rlhc.envs.soccer.shaping import ball_progress
+    potential = game_spec(name).potential if name in games() else None
+    if potential is None:
+        raise ValueError(
+            f"shaping.scale > 0 needs a potential; env {name!r} has none "
+            f"(games with one: {', '.join(shapable_games())})"
+        )
+    return lambda: potential(game)  # type: ignore[arg-type]
 
-        return lambda: ball_progress(game)  # type: ignore[arg-type]
-    raise ValueError(f"shaping.scale > 0 needs a potential; env {name!r} has none (soccer has)")
+
+def shapable_games() -> list[str]:
+    """The registered games that have a shaping potential."""
+    return [name for name in games() if game_spec(name).potential is not None]
 
 
 class PotentialShaping(Transform):

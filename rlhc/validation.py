@@ -1,6 +1,7 @@
 """Every check of a training config, in one place, with one error type.
 
-:func:`validate` runs before anything is built (``rlhc.run``'s preflight, the trainer):
+:func:`validate` (a training config) and :func:`validate_evaluate` (an evaluation
+config) run before anything is built (``rlhc.run``'s preflight, the trainer):
 it checks each setting the schemas' types cannot (ranges, choices, the league's shares,
 the logger, how the processes of a ``torchrun`` run share it) and raises
 :class:`~rlhc.errors.ConfigError` naming the key, its value and what is allowed. What
@@ -16,12 +17,15 @@ import torch
 import torch.distributed as dist
 
 from rlhc.config import LoggerConfig, TrainConfig
+from rlhc.envs import games
 from rlhc.envs.tennis.rules import FAULT_PENALTIES
 from rlhc.errors import ConfigError
+from rlhc.evaluation.config import MODES, EvaluateConfig
 from rlhc.league import SAMPLING, LeagueConfig
 from rlhc.objectives import FUSIONS
+from rlhc.shaping import shapable_games
 
-__all__ = ["ConfigError", "validate"]
+__all__ = ["ConfigError", "validate", "validate_evaluate"]
 
 MODEL_KINDS = ("mlp", "lstm")
 #: Metric backends (``logger.backends``) and wandb modes (``logger.wandb_mode``).
@@ -104,10 +108,10 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
             raise ConfigError(
                 f"{name}={number}; allowed: a finite number in {bracket}{low}, {high})"
             )
-    if cfg.shaping.scale > 0 and cfg.env.name != "soccer":
+    if cfg.shaping.scale > 0 and cfg.env.name not in shapable_games():
         raise ConfigError(
             f"shaping.scale={cfg.shaping.scale} on env={cfg.env.name!r}; allowed: 0, or "
-            "shaping on soccer (the only game with a potential)"
+            f"shaping on a game with a potential: {', '.join(shapable_games())}"
         )
     problems = league_problems(cfg.league)
     if problems:
@@ -202,3 +206,26 @@ def check_parallel(mode: str, size: int, device: str, league_active: bool) -> No
             "backend, which this torch build does not have; allowed: one process, or a "
             f"torch build with {name}"
         )
+
+
+def validate_evaluate(cfg: EvaluateConfig) -> None:
+    """Check an evaluation config (``python -m rlhc.evaluate``) before anything is built.
+
+    Raises:
+        ConfigError: naming the bad key, its value and what is allowed.
+    """
+    if cfg.mode not in MODES:
+        raise ConfigError(f"mode={cfg.mode!r}; allowed: {', '.join(MODES)}")
+    if cfg.env.name not in games():
+        raise ConfigError(f"env={cfg.env.name!r}; allowed: {', '.join(games())}")
+    if cfg.matches < 1 or (cfg.env.num_envs is not None and cfg.env.num_envs < 1):
+        raise ConfigError(
+            f"matches={cfg.matches}, env.num_envs={cfg.env.num_envs}; both must be >= 1"
+        )
+    if cfg.mode == "elo" and len(set(cfg.players)) < 2:
+        raise ConfigError(
+            "mode=elo needs at least two distinct players, e.g. "
+            "'players=[scripted,random,outputs/soccer/hierarchical/<time>]'"
+        )
+    if cfg.video.format not in ("gif", "mp4"):
+        raise ConfigError(f"video.format={cfg.video.format!r}; allowed: gif, mp4")

@@ -12,6 +12,7 @@ from hydra.errors import ConfigCompositionException
 from torchrl.collectors import Collector
 
 from rlhc.checkpoint import load_checkpoint
+from rlhc.envs import games
 from rlhc.errors import ConfigError
 from rlhc.evaluation.elo import expected_score
 from rlhc.league import (
@@ -76,7 +77,7 @@ def test_results_move_the_ratings() -> None:
 
 
 # --- only the learner's experiences train ---------------------------------------------
-@pytest.mark.parametrize("env", ["tennis", "soccer"])
+@pytest.mark.parametrize("env", games())
 def test_opponent_experiences_carry_no_gradient(env: str, tmp_path: Path) -> None:
     cfg = load(f"env={env}", "league.self_play=0.5", "league.scripted=0.5")
     trainer = Trainer(cfg, tmp_path)

@@ -38,6 +38,8 @@ if TYPE_CHECKING:
 #: every agent of every group, ``{group: [N, n_g, ...]}``, as :meth:`BatchedGame.step`
 #: takes them. It may read the game's observations or its full state.
 ScriptedTeam = Callable[["BatchedGame"], dict[str, np.ndarray]]
+#: A shaping potential: the game -> ``Φ`` of every agent of every group, ``[N, n_g]``.
+Potential = Callable[["BatchedGame"], dict[str, np.ndarray]]
 
 
 @dataclass(frozen=True)
@@ -58,6 +60,8 @@ class GameSpec:
         points_to_win: match rule: the first team to this many points (points or goals)
             wins; a match still undecided after ``points_to_win × max_cycles`` decisions
             is a draw.
+        potential: its reward-shaping potential (:data:`Potential`, for
+            ``shaping.scale > 0``: :mod:`rlhc.shaping`), or ``None`` if it has none.
 
     Examples:
         >>> from rlhc.envs.registry import game_spec
@@ -72,6 +76,7 @@ class GameSpec:
     groups: tuple[str, ...]
     scripted: ScriptedTeam
     points_to_win: int
+    potential: Potential | None = None
 
     def __post_init__(self) -> None:
         if self.game.name != self.name:

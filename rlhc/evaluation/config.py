@@ -10,7 +10,6 @@ from omegaconf import MISSING
 
 from rlhc.config import register_configs
 from rlhc.envs.keys import RANDOM, SCRIPTED
-from rlhc.envs.registry import games
 
 MODES = ("match", "elo")
 
@@ -84,25 +83,6 @@ class EvaluateConfig:
     def num_envs(self) -> int:
         """Worlds played in parallel: ``env.num_envs``, else up to 32, never above ``matches``."""
         return min(self.env.num_envs or 32, self.matches)
-
-
-def validate_evaluate(cfg: EvaluateConfig) -> None:
-    """Check what the schema cannot express; errors name the key and the allowed values."""
-    if cfg.mode not in MODES:
-        raise ValueError(f"mode={cfg.mode!r}; allowed: {', '.join(MODES)}")
-    if cfg.env.name not in games():
-        raise ValueError(f"env={cfg.env.name!r}; allowed: {', '.join(games())}")
-    if cfg.matches < 1 or (cfg.env.num_envs is not None and cfg.env.num_envs < 1):
-        raise ValueError(
-            f"matches={cfg.matches}, env.num_envs={cfg.env.num_envs}; both must be >= 1"
-        )
-    if cfg.mode == "elo" and len(set(cfg.players)) < 2:
-        raise ValueError(
-            "mode=elo needs at least two distinct players, e.g. "
-            "'players=[scripted,random,outputs/soccer/hierarchical/<time>]'"
-        )
-    if cfg.video.format not in ("gif", "mp4"):
-        raise ValueError(f"video.format={cfg.video.format!r}; allowed: gif, mp4")
 
 
 def register_evaluate_configs() -> None:

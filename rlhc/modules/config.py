@@ -47,10 +47,13 @@ class NetworkConfig:
             on top (ML-Agents 0.5's discrete PPO network, which the paper's soccer
             brains used), built together by :func:`~rlhc.modules.make_actor_value`;
             the manager critic stays a separate network. Tennis (continuous actions)
-            refuses it. Default false: every preset and result of this project used
-            separate networks, and sharing saves no compute here (each of TorchRL's
+            refuses it. Default false: sharing saves no compute here (each of TorchRL's
             two operators runs the trunk: the same FLOP per world-decision, and the
-            same update time within noise, by measurement).
+            same update time within noise, by measurement), every preset and result
+            of this project used separate networks, and its learning effect rests on
+            one seed so far (soccer PPO, 2 processes: 27-59-14 against the scripted
+            team, separate networks 4-50-46; one-process separate-network seeds
+            30-64-6 and 49-41-10; README "Do trained teams play?").
 
     Examples:
         >>> from rlhc.modules import NetworkConfig

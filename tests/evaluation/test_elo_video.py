@@ -11,7 +11,8 @@ from omegaconf import OmegaConf
 from PIL import Image
 
 from rlhc.evaluation.commands import VIDEO_DIR, run_elo
-from rlhc.evaluation.config import EvaluateConfig, register_evaluate_configs, validate_evaluate
+from rlhc.evaluation.config import EvaluateConfig, register_evaluate_configs
+from rlhc.validation import validate_evaluate
 
 ROOT = Path(__file__).resolve().parents[2]
 register_evaluate_configs()

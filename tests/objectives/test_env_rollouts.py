@@ -9,6 +9,7 @@ from tensordict.nn import TensorDictSequential
 from torch.testing import assert_close
 from torchrl.data import Composite
 
+from rlhc.envs import games
 from rlhc.modules import NetworkConfig, make_actor, make_manager_critic, make_worker_critic
 from rlhc.objectives import LOSS_KEYS, HierarchicalPPOLoss, make_ppo_loss
 
@@ -46,7 +47,7 @@ def rollout(name: str, fusion: str) -> tuple[TensorDictBase, dict[str, Hierarchi
     return data, losses
 
 
-@pytest.mark.parametrize("name", ["tennis", "soccer"])
+@pytest.mark.parametrize("name", games())
 def test_estimate_and_update_on_a_rollout(name: str) -> None:
     data, losses = rollout(name, fusion="max")
     # max_cycles = 10 over 25 steps: every world is truncated at least twice.

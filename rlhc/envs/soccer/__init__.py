@@ -23,6 +23,7 @@ from rlhc.envs.registry import GameSpec, register_game
 from rlhc.envs.soccer.config import SoccerOptions
 from rlhc.envs.soccer.game import SoccerGame
 from rlhc.envs.soccer.scripted import scripted_actions, scripted_team
+from rlhc.envs.soccer.shaping import ball_progress
 
 #: The game's entry in the registry.
 SPEC = register_game(
@@ -33,6 +34,7 @@ SPEC = register_game(
         groups=("striker", "goalie"),
         scripted=scripted_team,
         points_to_win=1,  # one goal wins; no goal within one episode is a draw
+        potential=ball_progress,
     )
 )
 
