@@ -26,7 +26,7 @@ import pkgutil
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,8 +38,9 @@ if TYPE_CHECKING:
 #: every agent of every group, ``{group: [N, n_g, ...]}``, as :meth:`BatchedGame.step`
 #: takes them. It may read the game's observations or its full state.
 ScriptedTeam = Callable[["BatchedGame"], dict[str, np.ndarray]]
-#: A shaping potential: the game -> ``Φ`` of every agent of every group, ``[N, n_g]``.
-Potential = Callable[["BatchedGame"], dict[str, np.ndarray]]
+#: A shaping potential: a game of its spec -> ``Φ`` of every agent of every group,
+#: ``[N, n_g]`` (``Any``: each game's potential reads its own game class).
+Potential = Callable[[Any], dict[str, np.ndarray]]
 
 
 @dataclass(frozen=True)
