@@ -266,7 +266,9 @@ def make_agents(
         losses[group] = make_ppo_loss(
             actor=actor,
             worker_critic=worker_critic,
-            manager_critic=make_manager_critic(env, group, net),
+            manager_critic=make_manager_critic(
+                env, group, net, manager_view=cfg.critic.manager_view
+            ),
             group=group,
             gamma=cfg.algo.gamma,
             lmbda=cfg.algo.lmbda,

@@ -34,11 +34,16 @@ class CriticConfig:
         weight: manager weight ``w`` of ``weighted``: ``w·V_m + (1 - w)·V_w``, in [0, 1].
         manager_interval: the manager is consulted every ``k`` steps of an episode
             (temporal scaling); on other steps the worker value is used.
+        manager_view: the second critic reads the manager's broader observation
+            (RLHC); ``false`` is the *twin* control (``critic=twin``): a second,
+            independently initialised critic on the worker's own observation, so
+            that ``max`` is as optimistic as RLHC's without the broader view.
     """
 
     fusion: str = "max"
     weight: float = 0.5
     manager_interval: int = measured_in("decisions", 1)
+    manager_view: bool = True
 
 
 @dataclass

@@ -33,8 +33,12 @@ def test_critic_names_map_to_fusions() -> None:
         "manager": "manager",
         "mean": "mean",
         "weighted": "weighted",
+        "twin": "max",
     }
     assert {c: load(f"critic={c}").critic.fusion for c in options("critic")} == expected
+    # Only the twin control's second critic reads the worker's own observation.
+    views = {c: load(f"critic={c}").critic.manager_view for c in options("critic")}
+    assert [c for c, view in views.items() if not view] == ["twin"]
 
 
 @pytest.mark.parametrize(

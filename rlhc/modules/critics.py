@@ -56,13 +56,19 @@ def make_worker_critic(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorD
     )
 
 
-def make_manager_critic(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModule:
+def make_manager_critic(
+    env: HasSpecs, group: str, cfg: NetworkConfig, *, manager_view: bool = True
+) -> TensorDictModule:
     """``V_m``: reads ``(group, "manager_observation")``, writes ``(group, "manager_value")``.
 
     Args:
         env: an env (or :class:`~rlhc.modules.specs.EnvSpecs`).
         group: the agent group, e.g. ``"racket"``.
         cfg: the MLP shape.
+        manager_view: ``False`` builds the *twin* control instead: a second critic on
+            the worker's own ``(group, "observation")``, initialised independently of
+            the worker critic, still writing ``(group, "manager_value")``. Its max with
+            the worker critic is as optimistic as RLHC's max, without the broader view.
 
     Returns:
         A ``TensorDictModule`` mapping ``[*B, n_g, d_m]`` to ``[*B, n_g, 1]``.
@@ -80,9 +86,9 @@ def make_manager_critic(env: HasSpecs, group: str, cfg: NetworkConfig) -> Tensor
         >>> critic(td)["racket", "manager_value"].shape
         torch.Size([5, 4, 1])
     """
-    n_agents, n_inputs = observation_size(env, group, manager=True)
+    n_agents, n_inputs = observation_size(env, group, manager=manager_view)
     return TensorDictModule(
         group_mlp(n_inputs, 1, n_agents, cfg),
-        in_keys=[(group, MANAGER_OBSERVATION)],
+        in_keys=[(group, MANAGER_OBSERVATION if manager_view else OBSERVATION)],
         out_keys=[(group, MANAGER_VALUE)],
     )
