@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -44,7 +45,25 @@ def test_stop_signals_records_the_first_signal_and_restores_the_handlers() -> No
     assert {s: signal.getsignal(s) for s in before} == before
 
 
+@pytest.fixture
+def terminal_signals() -> Iterator[None]:
+    """SIGINT and SIGTERM handled as in a terminal, for the test's duration.
+
+    A shell's background job (``&``, ``nohup``) starts with SIGINT ignored, and
+    :class:`StopSignals` rightly leaves an ignored signal ignored.
+    """
+    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    defaults = {signal.SIGINT: signal.default_int_handler, signal.SIGTERM: signal.SIG_DFL}
+    for signum, handler in previous.items():
+        if handler is signal.SIG_IGN:
+            signal.signal(signum, defaults[signum])
+    yield
+    for signum, handler in previous.items():
+        signal.signal(signum, handler)
+
+
 @pytest.mark.parametrize(("signum", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+@pytest.mark.usefixtures("terminal_signals")
 def test_a_signal_finishes_the_update_saves_and_raises(
     signum: int, code: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
