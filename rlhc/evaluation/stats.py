@@ -7,6 +7,11 @@
 * Means over seeds use the **Student t** interval (few seeds, unknown variance).
 * Two configurations are compared with **Welch's t-test** (unequal variances), on
   per-run values such as :func:`rlhc.runs.final_values`.
+* Over tasks and seeds, as Agarwal et al. (2021, "Deep RL at the edge of the
+  statistical precipice", the ``rliable`` library) recommend: the **interquartile mean**
+  with a **stratified bootstrap** interval, and the **probability of improvement**
+  ``P(X > Y)`` with its interval (scipy's ``bootstrap``; rliable itself would bring
+  pandas, statsmodels and arch for these two statistics).
 """
 
 from __future__ import annotations
@@ -133,3 +138,137 @@ def welch_t_test(
         )
     result = scipy_stats.ttest_ind(first, second, equal_var=False)
     return float(result.statistic), float(result.pvalue)
+
+
+# --- aggregates over tasks and seeds (Agarwal et al. 2021, "rliable") ------------------
+@dataclass(frozen=True)
+class Estimate:
+    """A point estimate with a two-sided bootstrap confidence interval.
+
+    Attributes:
+        value: the estimate on the data as observed.
+        low: lower bound of the interval.
+        high: upper bound.
+    """
+
+    value: float
+    low: float
+    high: float
+
+
+def iqm(values: Sequence[float] | np.ndarray) -> float:
+    """The interquartile mean: the mean of the middle 50 % of ``values``.
+
+    Robust to a few outlying seeds, yet less noisy than the median (Agarwal et al. 2021).
+
+    Examples:
+        >>> iqm([0.0, 1.0, 2.0, 3.0, 100.0, -100.0, 1.5, 2.5])
+        1.75
+    """
+    sample = np.asarray(values, dtype=np.float64).ravel()
+    if sample.size == 0:
+        raise ValueError("iqm of an empty sample")
+    return float(scipy_stats.trim_mean(sample, 0.25))
+
+
+def _tasks(scores_by_task: Sequence[Sequence[float]], what: str) -> list[np.ndarray]:
+    tasks = [np.asarray(scores, dtype=np.float64).ravel() for scores in scores_by_task]
+    if not tasks or any(task.size == 0 for task in tasks):
+        raise ValueError(f"{what}: every task needs at least one score, got sizes "
+                         f"{[task.size for task in tasks]}")  # fmt: skip
+    return tasks
+
+
+def iqm_interval(
+    scores_by_task: Sequence[Sequence[float]],
+    confidence: float = 0.95,
+    resamples: int = 2000,
+    seed: int = 0,
+) -> Estimate:
+    """IQM of the scores of every task (runs pooled) with a stratified bootstrap interval.
+
+    Each resample draws, with replacement, as many runs from each task as it has
+    (stratified: a task never lends runs to another), pools them and takes the IQM;
+    the interval is the percentile interval of those IQMs (scipy's ``bootstrap``).
+    Scores of different tasks must share a scale (e.g. normalised, or win rates).
+
+    Args:
+        scores_by_task: one sequence of per-run scores (one per seed) per task.
+        confidence: coverage of the interval.
+        resamples: bootstrap resamples.
+        seed: the resampling generator's seed (the interval is reproducible).
+
+    Examples:
+        >>> estimate = iqm_interval([[0.1, 0.2, 0.3, 0.4], [0.5, 0.6, 0.7, 0.8]])
+        >>> round(estimate.value, 3), estimate.low <= estimate.value <= estimate.high
+        (0.45, True)
+    """
+    tasks = _tasks(scores_by_task, "iqm_interval")
+
+    def pooled_iqm(*samples: np.ndarray, axis: int = -1) -> np.ndarray:
+        pooled = np.concatenate(samples, axis=axis)
+        return scipy_stats.trim_mean(pooled, 0.25, axis=axis)
+
+    value = float(pooled_iqm(*tasks))
+    if all(task.size < 2 for task in tasks):
+        return Estimate(value, value, value)
+    result = scipy_stats.bootstrap(
+        tasks, pooled_iqm, n_resamples=resamples, confidence_level=confidence,
+        method="percentile", vectorized=True, random_state=np.random.default_rng(seed),
+    )  # fmt: skip
+    interval = result.confidence_interval
+    return Estimate(value, float(interval.low), float(interval.high))
+
+
+def probability_of_improvement(
+    x_by_task: Sequence[Sequence[float]],
+    y_by_task: Sequence[Sequence[float]],
+    confidence: float = 0.95,
+    resamples: int = 2000,
+    seed: int = 0,
+) -> Estimate:
+    """``P(X > Y)``: how likely a run of X beats a run of Y on a random task, with its interval.
+
+    Per task, the Mann-Whitney probability that a score of X exceeds one of Y (ties
+    count half), averaged over tasks; the interval resamples the runs of X and of Y
+    within each task independently (stratified bootstrap, percentile interval).
+
+    Args:
+        x_by_task: per task, the per-run scores of X (e.g. RLHC's seeds).
+        y_by_task: per task, the per-run scores of Y (e.g. PPO's seeds), the same tasks.
+        confidence: coverage of the interval.
+        resamples: bootstrap resamples.
+        seed: the resampling generator's seed.
+
+    Raises:
+        ValueError: the two do not have the same number of tasks, or a task has no run.
+
+    Examples:
+        >>> probability_of_improvement([[2.0, 3.0]], [[0.0, 1.0]]).value
+        1.0
+        >>> probability_of_improvement([[1.0, 2.0]], [[1.0, 2.0]]).value
+        0.5
+    """
+    xs, ys = _tasks(x_by_task, "probability_of_improvement (X)"), _tasks(y_by_task, "(Y)")
+    if len(xs) != len(ys):
+        raise ValueError(f"X has {len(xs)} tasks and Y {len(ys)}; they must be the same tasks")
+
+    def improvement(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        # x: [..., n], y: [..., m] -> P(x > y) + P(x = y) / 2, over the last axis pairs.
+        greater = (x[..., :, None] > y[..., None, :]).mean(axis=(-2, -1))
+        ties = (x[..., :, None] == y[..., None, :]).mean(axis=(-2, -1))
+        return greater + 0.5 * ties
+
+    def average(*samples: np.ndarray, axis: int = -1) -> np.ndarray:
+        pairs = zip(samples[: len(xs)], samples[len(xs) :], strict=True)
+        return np.mean([improvement(x, y) for x, y in pairs], axis=0)
+
+    value = float(average(*xs, *ys))
+    if all(sample.size < 2 for sample in (*xs, *ys)):
+        return Estimate(value, value, value)
+    result = scipy_stats.bootstrap(
+        [*xs, *ys], average, n_resamples=resamples, confidence_level=confidence,
+        method="percentile", vectorized=True, random_state=np.random.default_rng(seed),
+    )  # fmt: skip
+    interval = result.confidence_interval
+    return Estimate(value, float(interval.low), float(interval.high))

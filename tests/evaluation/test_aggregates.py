@@ -1,0 +1,58 @@
+"""Aggregates over tasks and seeds: IQM, stratified bootstrap, probability of improvement."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rlhc.evaluation.stats import iqm, iqm_interval, probability_of_improvement
+
+
+def test_iqm_is_the_mean_of_the_middle_half() -> None:
+    values = np.arange(8.0)  # the middle half: 2, 3, 4, 5
+    assert iqm(values) == 3.5
+    assert iqm([1.0, 1.0, 1.0, 1000.0]) == 1.0  # an outlying seed does not move it
+    with pytest.raises(ValueError, match="empty"):
+        iqm([])
+
+
+def test_the_iqm_interval_is_reproducible_and_narrows_with_seeds() -> None:
+    rng = np.random.default_rng(1)
+    few = [rng.normal(0.5, 0.1, 5), rng.normal(0.6, 0.1, 5)]
+    many = [rng.normal(0.5, 0.1, 50), rng.normal(0.6, 0.1, 50)]
+    first, again = iqm_interval(few, seed=3), iqm_interval(few, seed=3)
+    assert first == again
+    assert first.low <= first.value <= first.high
+    narrow = iqm_interval(many)
+    assert narrow.high - narrow.low < first.high - first.low
+    # One run per task: no spread to resample.
+    single = iqm_interval([[0.2], [0.4]])
+    assert single.low == single.value == single.high == pytest.approx(0.3)
+
+
+def test_the_bootstrap_is_stratified_by_task() -> None:
+    # Task A always scores 0, task B always 1: any resample keeps 2 runs of each, so the
+    # pooled IQM cannot move (an unstratified resample could draw four 0s).
+    estimate = iqm_interval([[0.0, 0.0], [1.0, 1.0]])
+    assert (estimate.low, estimate.value, estimate.high) == (0.5, 0.5, 0.5)
+
+
+def test_probability_of_improvement() -> None:
+    better, worse = [[2.0, 3.0, 4.0], [5.0, 6.0]], [[0.0, 1.0, 1.5], [1.0, 2.0]]
+    assert probability_of_improvement(better, worse).value == 1.0
+    assert probability_of_improvement(worse, better).value == 0.0
+    same = probability_of_improvement([[1.0, 2.0, 3.0]], [[1.0, 2.0, 3.0]])
+    assert same.value == 0.5 and same.low < 0.5 < same.high
+    rng = np.random.default_rng(0)
+    x = [rng.normal(size=6) for _ in range(3)]
+    y = [rng.normal(size=6) for _ in range(3)]
+    forward, backward = probability_of_improvement(x, y), probability_of_improvement(y, x)
+    assert forward.value + backward.value == pytest.approx(1.0)
+    assert forward.low <= forward.value <= forward.high
+
+
+def test_probability_of_improvement_refuses_mismatched_tasks() -> None:
+    with pytest.raises(ValueError, match="X has 2 tasks and Y 1"):
+        probability_of_improvement([[1.0], [2.0]], [[1.0]])
+    with pytest.raises(ValueError, match="at least one score"):
+        probability_of_improvement([[1.0], []], [[1.0], [2.0]])
