@@ -333,7 +333,7 @@ def config_differences(stored: Mapping[str, Any], current: Mapping[str, Any]) ->
         ...                    {"model": {"hidden_size": 64}, "env": {"num_envs": 8}})
         ['model.hidden_size: 32 -> 64']
     """
-    old, new = _flatten(stored), _flatten(current)
+    old, new = flatten(stored), flatten(current)
     differing = []
     for key in sorted(old.keys() & new.keys()):
         fixed = key.split(".", 1)[0] in FIXED_SECTIONS or key in FIXED_KEYS
@@ -342,13 +342,13 @@ def config_differences(stored: Mapping[str, Any], current: Mapping[str, Any]) ->
     return differing
 
 
-def _flatten(config: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    """``{"a": {"b": 1}} -> {"a.b": 1}``."""
+def flatten(config: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{"a": {"b": 1}} -> {"a.b": 1}`` (lists are kept as values)."""
     flat: dict[str, Any] = {}
     for key, value in config.items():
         name = f"{prefix}{key}"
         if isinstance(value, Mapping):
-            flat.update(_flatten(value, f"{name}."))
+            flat.update(flatten(value, f"{name}."))
         else:
             flat[name] = value
     return flat

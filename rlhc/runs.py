@@ -28,7 +28,7 @@ import csv
 import math
 import os
 from collections import defaultdict
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from omegaconf import OmegaConf
 
+from rlhc.checkpoint import flatten
 from rlhc.evaluation.stats import t_half_width
 
 METRICS_FILE = "metrics.csv"
@@ -136,18 +137,6 @@ def read_metrics(path: Path) -> dict[str, np.ndarray]:
         name: np.array([float(row[name]) if row.get(name) else math.nan for row in rows])
         for name in names
     }
-
-
-def flatten(tree: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    """``{"a": {"b": 1}} -> {"a.b": 1}`` (lists are kept as values)."""
-    flat: dict[str, Any] = {}
-    for key, value in tree.items():
-        name = f"{prefix}{key}"
-        if isinstance(value, Mapping):
-            flat.update(flatten(value, f"{name}."))
-        else:
-            flat[name] = value
-    return flat
 
 
 def read_config(run_dir: Path) -> dict[str, Any]:
