@@ -37,7 +37,7 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(PY) -m ruff check rlhc tests benchmarks
 	$(PY) -m ruff format --check rlhc tests benchmarks
-	$(PY) -m mypy rlhc
+	$(PY) -m mypy rlhc benchmarks
 
 bench: $(STAMP)
 	$(PY) benchmarks/env_throughput.py

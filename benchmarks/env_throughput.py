@@ -37,7 +37,7 @@ def random_actions(game: Any, rng: np.random.Generator, steps: int) -> list[dict
 
     batches = []
     for _ in range(steps):
-        batch = {}
+        batch: dict[str, np.ndarray] = {}
         for spec in game.groups:
             shape = (game.num_worlds, spec.num_agents)
             if isinstance(spec.action, ContinuousAction):

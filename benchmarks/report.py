@@ -1,31 +1,33 @@
-"""Report of the RLHC-vs-PPO reproduction: ``docs/RESULTS.md`` from the study's runs.
+"""Report of the RLHC-vs-PPO reproduction: ``docs/RESULTS.md`` from the studies' runs.
 
-Reads the runs that ``python -m benchmarks.reproduce`` writes under
-``benchmarks/results/reproduce/<study>/<config>/seed_<k>/`` (never their checkpoints,
-except to play matches) and writes every number of ``docs/RESULTS.md``:
+Reads the runs of the studies in ``conf/study`` (each run's ``summary.json``,
+``metrics.csv``, ``.hydra/config.yaml``; each study's ``round_robin.json``) and writes
+every number of ``docs/RESULTS.md``:
 
-* which runs are complete (their ``summary.json``); unfinished runs are listed and left
-  out of every statistic;
+* the plan and its compute (core-hours per study from measured training rates); which
+  runs are complete (unfinished runs are listed and left out of every statistic);
 * per study and group metric: the final value of each run — the mean of the last 10%
   (by steps) of its TensorBoard-smoothed curve (EMA 0.8, as ``python -m rlhc.plot``) —
-  averaged over seeds with a 95% Student t interval; steps to reach a threshold; the
-  final episode length and entropy;
-* Welch's t-test of RLHC against PPO on those per-seed final values;
-* the paper's four curves per study (:func:`rlhc.plotting.plot_runs`), drawn into
-  ``--images`` (default: ``images/`` next to ``--out``);
-* head-to-head matches of the final RLHC team against the final PPO team (seed k vs
-  seed k, sides swapped every match, deterministic actions) and of every final team
-  against the scripted team, with 95% Wilson intervals. They need the checkpoints; with
-  ``--matches 0`` the previous report's matches are kept if the runs are unchanged.
+  averaged over seeds with a 95% Student t interval; steps to reach a threshold with
+  its interval; hits per point (tennis) or goal rate (soccer); training speed;
+* Welch's t-test between the compared critics (RLHC, twin, PPO) on those finals;
+* the paper's four curves plus the play metric per study, drawn into ``--images``
+  (default: ``images/`` next to ``--out``);
+* a round robin per study of every final team, the scripted and the random team:
+  ratings, scores against the built-in teams per seed, head-to-head with intervals that
+  include the spread between seeds (:mod:`benchmarks.reporting.standings`);
+* rliable-style aggregates over games (:mod:`benchmarks.reporting.aggregates`).
 
-The hand-written interpretation of the previous ``--out`` is kept. This module is the
-command line; the work is done by :mod:`benchmarks.reporting`.
+Matches need the runs' checkpoints: ``--matches N`` (default 20) first plays the missing
+pairings into the studies' ``round_robin.json``; ``--matches 0`` plays none and reports
+the committed series. The hand-written interpretation of the previous ``--out`` is kept.
+This module is the command line; the work is done by :mod:`benchmarks.reporting`.
 
 Usage (from the repository root)::
 
     python -m benchmarks.report --matches 0                      # from the committed files
-    python -m benchmarks.report                                  # 100 matches per pairing
-    python -m benchmarks.report --matches 10 --out /tmp/RESULTS.md
+    python -m benchmarks.report                                  # plays missing pairings
+    python -m benchmarks.report --study soccer_paper --out /tmp/RESULTS.md
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from benchmarks.reporting.document import build_report
-from benchmarks.reporting.plan import RESULTS, STUDIES
+from benchmarks.reporting.plan import study_names
 from benchmarks.reporting.study import THRESHOLD_FRACTION
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -44,14 +46,14 @@ ROOT = Path(__file__).resolve().parents[1]
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     """The report's options; ``images`` defaults to ``images/`` next to ``out``."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--results", type=Path, default=RESULTS, help="the study's root")
     parser.add_argument(
         "--matches",
         type=int,
-        default=100,
-        help="matches per pairing (0: play none, keep the previous report's if the runs "
-        "are unchanged)",
+        default=20,
+        help="matches per pairing to play where a study's round robin lacks one (even; 0: "
+        "play none, report the committed series)",
     )
+    parser.add_argument("--match-seed", type=int, default=0, help="seed of the matches")
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "RESULTS.md")
     parser.add_argument(
         "--images",
@@ -66,7 +68,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         default=True,
         help="draw the curve figures (--no-figures: only link them)",
     )
-    parser.add_argument("--study", nargs="+", choices=list(STUDIES), default=list(STUDIES))
+    names = study_names()
+    parser.add_argument("--study", nargs="+", choices=names, default=names)
     parser.add_argument(
         "--threshold-fraction",
         type=float,
@@ -74,6 +77,10 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         help="steps-to-threshold level, as a share of the way from initial to best final",
     )
     args = parser.parse_args(argv)
+    if args.matches < 0 or args.matches % 2:
+        parser.error(f"--matches must be 0 or a positive even number, got {args.matches}")
+    if not 0.0 < args.threshold_fraction <= 1.0:
+        parser.error(f"--threshold-fraction must lie in (0, 1], got {args.threshold_fraction}")
     if args.images is None:
         args.images = args.out.parent / "images"
     return args

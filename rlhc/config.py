@@ -18,6 +18,9 @@ from rlhc.league import LeagueConfig
 from rlhc.modules.config import NetworkConfig
 from rlhc.shaping import ShapingConfig
 
+#: ``resume=auto``: continue from the run directory's own checkpoint, if it holds one.
+RESUME_AUTO = "auto"
+
 
 def measured_in(unit: str, default: Any = MISSING) -> Any:
     """A schema field with its unit (shown in the README's generated table)."""
@@ -166,7 +169,11 @@ class TrainConfig:
         seed: seeds torch, numpy and the game.
         checkpoint_freq: save a checkpoint after every update that crosses a multiple of
             this many world-decisions (and always at the end).
-        resume: a checkpoint file, or a run directory (its latest checkpoint), to continue.
+        resume: ``null``: start fresh; a checkpoint file, or a run directory (its
+            latest checkpoint): continue it; ``auto``: continue from this run's own
+            directory (``hydra.run.dir``; a multirun job's ``hydra.sweep.dir`` /
+            ``hydra.sweep.subdir``) if it holds a checkpoint, else start fresh (as every
+            study of ``conf/study/`` does; a directory named ``auto``: ``./auto``).
         device: torch device.
         threads: torch intra-op threads (``0``: leave torch's default).
         eval_freq: every this many world-decisions, play ``eval_matches`` matches against the

@@ -92,7 +92,8 @@ def main(argv: Sequence[str] | None = None) -> None:
             f"rlhc.plot: error: no run directory (one holding {METRICS_FILE}) at or under "
             f"{', '.join(args.runs)}"
         )
-    out = plot_runs(run_dirs, args.out, args.smoothing, args.group_by, args.metrics)
+    titles = {leaf: PAPER_METRICS.get(leaf, leaf) for leaf in args.metrics}
+    out = plot_runs(run_dirs, args.out, args.smoothing, args.group_by, titles)
     print(f"wrote {out}")
     runs = load_runs(run_dirs)
     groups = group_runs(runs, args.group_by)

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
-from rlhc.runs import PAPER_METRICS, aggregate, group_runs, load_runs, panel_metrics
+from rlhc.runs import PAPER_METRICS, Run, aggregate, group_runs, load_runs, panel_metrics
 
 
 def plot_runs(
@@ -22,7 +22,7 @@ def plot_runs(
     out: str | os.PathLike[str] = "curves.png",
     smoothing: float = 0.8,
     group_by: Sequence[str] | None = None,
-    metrics: Iterable[str] = PAPER_METRICS,
+    metrics: Mapping[str, str] = PAPER_METRICS,
     columns: int = 4,
 ) -> Path:
     """Draw the paper's curves of every run under ``paths`` into one PNG.
@@ -35,23 +35,37 @@ def plot_runs(
         out: the image file to write (format from its suffix, PNG by default).
         smoothing: TensorBoard smoothing weight, in ``[0, 1)``.
         group_by: config keys defining a configuration (see :func:`group_runs`).
-        metrics: metric leaves to draw (default: :data:`PAPER_METRICS`).
+        metrics: metric leaf -> panel title (default: :data:`PAPER_METRICS`).
         columns: panels per row.
 
     Returns:
         The path written.
+    """
+    runs = load_runs(paths)
+    return plot_groups(group_runs(runs, group_by), out, smoothing, metrics, columns)
+
+
+def plot_groups(
+    groups: Mapping[str, Sequence[Run]],
+    out: str | os.PathLike[str] = "curves.png",
+    smoothing: float = 0.8,
+    metrics: Mapping[str, str] = PAPER_METRICS,
+    columns: int = 4,
+) -> Path:
+    """Draw runs already grouped by configuration: ``label -> runs`` (see :func:`plot_runs`).
+
+    Raises:
+        ValueError: no run logged any of ``metrics``.
     """
     import matplotlib
 
     matplotlib.use("Agg")  # files only: never needs a display
     import matplotlib.pyplot as plt
 
-    runs = load_runs(paths)
-    panels = panel_metrics(runs, metrics)
+    panels = panel_metrics([run for members in groups.values() for run in members], metrics)
     if not panels:
         wanted = ", ".join(metrics)
         raise ValueError(f"none of the runs logged any of: {wanted}")
-    groups = group_runs(runs, group_by)
     ncols = min(columns, len(panels))
     nrows = math.ceil(len(panels) / ncols)
     fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols, 3.2 * nrows), squeeze=False)
@@ -66,7 +80,7 @@ def plot_runs(
             if curve.runs > 1:
                 ax.fill_between(curve.steps, curve.low, curve.high, color=colour, alpha=0.2)
         group, _, leaf = metric.rpartition("/")
-        title = PAPER_METRICS.get(leaf, leaf)
+        title = metrics.get(leaf, leaf)
         ax.set_title(f"{group}: {title}" if group else title)
         ax.set_xlabel("env steps")
         ax.grid(alpha=0.3)

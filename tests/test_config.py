@@ -34,6 +34,7 @@ def test_critic_names_map_to_fusions() -> None:
         "mean": "mean",
         "weighted": "weighted",
         "twin": "max",
+        "hierarchical_k5": "max",
     }
     assert {c: load(f"critic={c}").critic.fusion for c in options("critic")} == expected
     # Only the twin control's second critic reads the worker's own observation.

@@ -14,10 +14,10 @@ from benchmarks import report as report_cli
 from benchmarks.reporting.blocks import HAND_WRITTEN, block, blocks_of, body_lines
 from benchmarks.reporting.document import build_report, command_line
 from benchmarks.reporting.formatting import fmt, fmt_interval, fmt_reach, table
-from benchmarks.reporting.head_to_head import Record, match_verdict, pooled, record_of
 from benchmarks.reporting.markdown import runs_section
-from benchmarks.reporting.plan import STUDIES, PlannedRun, Study, plan
+from benchmarks.reporting.plan import PlannedRun, Study, plan, read_study, studies
 from benchmarks.reporting.runs import complete_runs, discover
+from benchmarks.reporting.standings import STORE, study_matches
 from benchmarks.reporting.statistics import (
     Comparison,
     config_finals,
@@ -27,30 +27,33 @@ from benchmarks.reporting.statistics import (
     steps_to_reach,
     threshold,
 )
+from benchmarks.reporting.study import comparisons_of, table_configs
 from benchmarks.reporting.summary import (
     RunSummary,
     read_summary,
     summarise,
     write_summary,
 )
-from rlhc.evaluation.matches import MatchResult
-from rlhc.evaluation.stats import t_interval, wilson_interval
+from benchmarks.reporting.tournament import Series
+from rlhc.evaluation.stats import t_interval
 from rlhc.runs import ema_smooth
 
-TOY = Study("toy", {"ppo": ("env=tennis", "critic=ppo"), "hierarchical": ("env=tennis",)}, 3, 100)
-STUDY = {"toy": TOY}
+
+def toy_study(root: Path) -> Study:
+    """A tennis study of two critics, 3 seeds of 100 frames, its runs under ``root``."""
+    return Study("toy", "A toy study.", "tennis", ("hierarchical", "ppo"), (0, 1, 2), 100, root)
 
 
 def write_run(root: Path, config: str, seed: int, rewards: list[float]) -> Path:
     """A synthetic run: metrics.csv (steps 10, 20, …), its Hydra records and train.log,
     and the summary.json that ``reproduce`` writes after training."""
-    run = root / "toy" / config / f"seed_{seed}"
+    run = root / config / f"seed_{seed}"
     (run / ".hydra").mkdir(parents=True)
     fusion = "local" if config == "ppo" else "max"
     (run / ".hydra" / "config.yaml").write_text(
         f"env:\n  name: tennis\ncritic:\n  fusion: {fusion}\nseed: {seed}\n"
     )
-    overrides = [*TOY.configs[config], f"seed={seed}"]
+    overrides = ["study=toy", f"critic={config}", f"seed={seed}"]
     (run / ".hydra" / "overrides.yaml").write_text("".join(f"- {o}\n" for o in overrides))
     (run / "train.log").write_text("code version: abc123\n")
     with (run / "metrics.csv").open("w", newline="") as f:
@@ -61,13 +64,25 @@ def write_run(root: Path, config: str, seed: int, rewards: list[float]) -> Path:
                 "racket/cumulative_reward",
                 "racket/entropy",
                 "episode_length",
+                "events/hits_over_net_per_episode",
+                "env_steps_per_s",
                 "wall_time",
                 "iteration",
             ]
         )
         for i, reward in enumerate(rewards):
-            writer.writerow([10 * (i + 1), reward, 1.0 - 0.01 * i, 20 + i, 5.0 * (i + 1), i + 1])
-    planned = PlannedRun("toy", config, seed, TOY.configs[config], TOY.max_steps)
+            row = [
+                10 * (i + 1),
+                reward,
+                1.0 - 0.01 * i,
+                20 + i,
+                reward,
+                100.0,
+                5.0 * (i + 1),
+                i + 1,
+            ]
+            writer.writerow(row)
+    planned = PlannedRun("toy", config, seed, 100, root)
     write_summary(run, summarise(planned, run))
     return run
 
@@ -80,11 +95,30 @@ def results(tmp_path: Path) -> Path:
     write_run(tmp_path, "hierarchical", 0, [2 * v for v in ramp])
     write_run(tmp_path, "hierarchical", 1, [2 * v + 0.1 for v in ramp])
     write_run(tmp_path, "hierarchical", 2, ramp[:3])  # stopped at 30 frames of 100
-    (tmp_path / "toy" / "ppo" / "seed_2").mkdir()  # started, no summary yet
+    (tmp_path / "ppo" / "seed_2").mkdir()  # started, no summary yet
     return tmp_path
 
 
-def test_plan_is_seed_major_and_names_unknown_studies() -> None:
+@pytest.fixture
+def toy(results: Path) -> dict[str, Study]:
+    return {"toy": toy_study(results)}
+
+
+def test_plan_reads_the_study_configs_and_is_seed_major() -> None:
+    known = studies()
+    assert list(known) == [
+        "tennis_paper", "tennis_extended", "soccer_paper", "tennis_extensions", "soccer_best",
+    ]  # fmt: skip
+    assert known["soccer_paper"].configs == ("ppo", "hierarchical", "twin")
+    assert (known["soccer_paper"].env, known["soccer_paper"].max_steps) == ("soccer", 500_000)
+    assert (known["tennis_paper"].env, known["tennis_paper"].max_steps) == ("tennis", 3_600_000)
+    assert known["soccer_best"].max_steps == 1_000_000  # the study's own budget
+    assert known["tennis_extended"].configs == ("ppo", "hierarchical")
+    assert all(study.seeds == (0, 1, 2, 3, 4) for study in known.values())
+    assert (
+        known["soccer_paper"].root == report_cli.ROOT / "benchmarks/results/learning/soccer/paper"
+    )
+    assert known["soccer_paper"].command == "python -m rlhc.run -m study=soccer_paper"
     runs = plan(["tennis_extensions"], seeds=2)
     assert [(r.seed, r.config) for r in runs[:4]] == [
         (0, "manager"),
@@ -92,12 +126,36 @@ def test_plan_is_seed_major_and_names_unknown_studies() -> None:
         (0, "hierarchical_k5"),
         (1, "manager"),
     ]
-    assert len(plan(list(STUDIES))) == sum(s.planned for s in STUDIES.values()) == 39
-    assert STUDIES["soccer"].env == "soccer" and STUDIES["tennis_extensions"].env == "tennis"
+    assert runs[0].overrides == ("study=tennis_extensions", "critic=manager", "seed=0")
+    assert runs[0].run_dir == known["tennis_extensions"].root / "manager" / "seed_0"
+    assert len(plan(list(known))) == sum(s.planned for s in known.values()) == 70
     with pytest.raises(KeyError, match="unknown studies"):
         plan(["nonesuch"])
-    with pytest.raises(ValueError, match="share one env= override"):
-        _ = Study("mixed", {"a": ("env=tennis",), "b": ("env=soccer",)}, 1, 10).env
+
+
+def test_a_study_config_must_sweep_critics_and_seeds(tmp_path: Path) -> None:
+    bad = tmp_path / "soccer_paper.yaml"  # a real study's name: it composes
+    bad.write_text("hydra:\n  sweep:\n    dir: x\n  sweeper:\n    params:\n      seed: range(2)\n")
+    with pytest.raises(ValueError, match="must sweep 'critic'"):
+        read_study(bad)
+    bad.write_text("hydra:\n  sweeper:\n    params:\n      seed: range(2)\n")
+    with pytest.raises(ValueError, match=r"must set hydra\.sweep\.dir"):
+        read_study(bad)
+
+
+def test_compared_pairs() -> None:
+    known = studies()
+    assert comparisons_of(known["soccer_paper"]) == [
+        ("soccer_paper/hierarchical", "soccer_paper/twin"),
+        ("soccer_paper/hierarchical", "soccer_paper/ppo"),
+        ("soccer_paper/twin", "soccer_paper/ppo"),
+    ]
+    assert comparisons_of(known["tennis_extended"]) == [
+        ("tennis_extended/hierarchical", "tennis_extended/ppo")
+    ]
+    extensions = known["tennis_extensions"]
+    assert ("tennis_extensions/mean", "tennis_paper/ppo") in comparisons_of(extensions)
+    assert table_configs(extensions)[-2:] == ["tennis_paper/hierarchical", "tennis_paper/ppo"]
 
 
 def test_summary_from_files_records_frames_budget_and_provenance(tmp_path: Path) -> None:
@@ -106,19 +164,19 @@ def test_summary_from_files_records_frames_budget_and_provenance(tmp_path: Path)
     assert summary is not None
     assert (summary.frames, summary.max_steps, summary.completed) == (100, 100, True)
     assert (summary.updates, summary.wall_time_s) == (10, 50.0)
-    assert summary.overrides == ("env=tennis", "critic=ppo", "seed=0")
+    assert summary.overrides == ("study=toy", "critic=ppo", "seed=0")
     assert summary.code_versions == ("abc123",)
     assert summary.frames_from == "metrics.csv (last step)"  # no checkpoint kept
     assert json.loads((run / "summary.json").read_text())["completed"] is True
     # What is not recorded is null, and the notes say why.
     (run / "train.log").write_text("a warning\n")
     (run / ".hydra" / "overrides.yaml").unlink()
-    bare = summarise(PlannedRun("toy", "ppo", 0, (), 200), run)
+    bare = summarise(PlannedRun("toy", "ppo", 0, 200, tmp_path), run)
     assert (bare.code_versions, bare.overrides, bare.completed) == (None, None, False)
     assert any("no code version" in note for note in bare.notes)
     empty = tmp_path / "empty"
     empty.mkdir()
-    nothing = summarise(PlannedRun("toy", "ppo", 0, (), 200), empty)
+    nothing = summarise(PlannedRun("toy", "ppo", 0, 200, tmp_path), empty)
     assert (nothing.frames, nothing.updates, nothing.wall_time_s) == (None, None, None)
 
 
@@ -129,15 +187,15 @@ def test_summary_round_trips_and_refuses_bad_files(tmp_path: Path) -> None:
         RunSummary.from_json('{"study": "toy"}', "bad.json")
     with pytest.raises(ValueError, match="completed=True but frames=50"):
         RunSummary("toy", "ppo", 0, 100, 50, "x", 3, 1.5, None, None, True)
-    run = tmp_path / "toy" / "ppo" / "seed_0"
+    run = tmp_path / "ppo" / "seed_0"
     run.mkdir(parents=True)
     write_summary(run, RunSummary("toy", "ppo", 1, 100, 120, "x", 3, 1.5, None, None, True))
     with pytest.raises(ValueError, match="the plan expects"):
-        discover(tmp_path, STUDY)
+        discover({"toy": toy_study(tmp_path)})
 
 
-def test_discover_reads_completeness_from_summaries(results: Path) -> None:
-    runs = discover(results, STUDY)
+def test_discover_reads_completeness_from_summaries(toy: dict[str, Study]) -> None:
+    runs = discover(toy)
     status = {(r.config, r.seed): (r.complete, r.frames) for r in runs}
     assert status == {
         ("ppo", 0): (True, 100),
@@ -150,8 +208,8 @@ def test_discover_reads_completeness_from_summaries(results: Path) -> None:
     assert [r.seed for r in complete_runs(runs, "toy/hierarchical")] == [0, 1]
 
 
-def test_smoothed_final_is_the_last_tenth_of_the_ema_curve(results: Path) -> None:
-    run = discover(results, STUDY)[0].curves()
+def test_smoothed_final_is_the_last_tenth_of_the_ema_curve(toy: dict[str, Study]) -> None:
+    run = next(r for r in discover(toy) if r.name == "toy/ppo").curves()
     curve = ema_smooth(np.array([0.1 * i for i in range(10)]), 0.8)
     # steps 10..100: the last 10% is step >= 90, i.e. the last two points.
     expected = curve[-2:].mean()
@@ -168,8 +226,8 @@ def test_threshold_and_steps_to_reach() -> None:
     assert steps_to_reach(steps, np.array([0.0, 0.1, 0.2]), 0.5) is None
 
 
-def test_finals_table_threshold_and_reach(results: Path) -> None:
-    runs = discover(results, STUDY)
+def test_finals_table_threshold_and_reach(toy: dict[str, Study]) -> None:
+    runs = discover(toy)
     tables = [
         config_finals(name, complete_runs(runs, name), "racket")
         for name in ("toy/hierarchical", "toy/ppo")
@@ -189,7 +247,7 @@ def test_finals_table_threshold_and_reach(results: Path) -> None:
 
 def test_no_threshold_when_nothing_improves(tmp_path: Path) -> None:
     write_run(tmp_path, "ppo", 0, [1.0, 0.5, 0.0] * 3 + [0.0])
-    runs = discover(tmp_path, STUDY)
+    runs = discover({"toy": toy_study(tmp_path)})
     tables = [config_finals("toy/ppo", runs, "racket")]
     assert fill_reach(tables, runs, "racket", 0.5) is None
     assert tables[0].reach == [None]
@@ -214,44 +272,18 @@ def test_comparison_uses_per_seed_values_and_words_the_result() -> None:
     assert single.test() is None and "not testable yet" in single.verdict()
 
 
-def test_records_pool_and_rate_with_wilson() -> None:
-    result = MatchResult(
-        "home",
-        "away",
-        home_side=np.array([0, 1, 0, 1]),
-        home_points=np.array([5, 5, 2, 1]),
-        away_points=np.array([3, 0, 2, 5]),
-        steps=np.array([90, 80, 300, 70]),
-    )
-    record = record_of(result.summary())  # outcomes +1, +1, 0, -1
-    assert record == Record(2, 1, 1) and record.score == pytest.approx(0.625)
-    total = pooled([record, Record(1, 0, 3)])
-    assert total == Record(3, 1, 4) and total.matches == 8
-    low, high = wilson_interval(3, 8)
-    assert total.rate(3) == f"{3 / 8:.1%} [{low:.1%}, {high:.1%}]"
-    assert Record(0, 0, 0).rate(0) == "—"
-    assert "scores higher" in match_verdict("x", Record(90, 0, 10))
-    assert "scores lower" in match_verdict("x", Record(10, 0, 90))
-    assert "not distinguishable" in match_verdict("x", Record(5, 1, 4))
-    assert "no matches" in match_verdict("x", Record(0, 0, 0))
-
-
 def test_formatting() -> None:
     ci = t_interval([1.0, 2.0, 3.0])
     assert fmt_interval(ci, 2, fixed=True) == "2.00 [-0.48, 4.48]"
     assert "no interval" in fmt_interval(t_interval([1.0]))
     assert fmt(math.nan) == "—" and fmt(None) == "—"
-    assert fmt_reach([10.0, None, 30.0]) == "20 (2/3 seeds)"
+    assert fmt_reach([10.0, None, 30.0]) == "20 [-107, 147] (2/3 seeds)"
+    assert fmt_reach([None, None]) == "— (0/2 seeds)"
     assert table(["a", "b"], [["1", "2"]]) == ["| a | b |", "|---|---|", "| 1 | 2 |"]
 
 
-def test_runs_section_lists_unfinished_runs_and_wall_time(results: Path) -> None:
-    runs = discover(results, STUDY)
-    STUDIES["toy"] = TOY
-    try:
-        text = "\n".join(runs_section(runs, ["toy"]))
-    finally:
-        del STUDIES["toy"]
+def test_runs_section_lists_unfinished_runs_and_wall_time(toy: dict[str, Study]) -> None:
+    text = "\n".join(runs_section(discover(toy), toy))
     assert "2 of 3" in text
     assert "seed 2 (no summary yet)" in text and "seed 2 (30 frames)" in text
     assert "50 [50, 50]" in text  # wall_time of the last row, identical for both seeds
@@ -265,10 +297,13 @@ def test_cli_draws_figures_next_to_out_and_names_the_default_command(tmp_path: P
     assert elsewhere.images == tmp_path / "images"  # never docs/images
     given = report_cli.parse_args(["--out", str(tmp_path / "r.md"), "--images", "figs"])
     assert given.images == Path("figs")
-    assert command_line(default) == "python -m benchmarks.report --matches 100"
-    assert command_line(report_cli.parse_args(["--matches", "0", "--study", "tennis"])) == (
-        "python -m benchmarks.report --matches 0 --study tennis"
+    assert command_line(default) == "python -m benchmarks.report --matches 20"
+    assert command_line(report_cli.parse_args(["--matches", "0", "--study", "soccer_paper"])) == (
+        "python -m benchmarks.report --matches 0 --study soccer_paper"
     )
+    for bad in (["--matches", "3"], ["--matches", "-2"], ["--threshold-fraction", "0"]):
+        with pytest.raises(SystemExit):
+            report_cli.parse_args(bad)
 
 
 def test_blocks_parse_back() -> None:
@@ -282,25 +317,61 @@ def test_blocks_parse_back() -> None:
         blocks_of(text + "\n" + "\n".join(block("a", [])))
 
 
-def test_rebuild_keeps_interpretation_and_matches_only_for_unchanged_runs(
-    results: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+def test_rebuild_keeps_the_interpretation_and_counts_runs(
+    toy: dict[str, Study], results: Path, tmp_path: Path
 ) -> None:
-    monkeypatch.setitem(STUDIES, "toy", TOY)
     out = tmp_path / "doc" / "RESULTS.md"
-    argv = ["--results", str(results), "--out", str(out), "--study", "toy", "--matches", "0"]
-    args = report_cli.parse_args([*argv, "--no-figures"])
-    first = build_report(args)
-    assert "*(to be written)*" in first and "Not played (`--matches 0`)." in first
+    args = report_cli.parse_args(["--out", str(out), "--matches", "0", "--no-figures"])
+    first = build_report(args, plan=toy)
+    assert "*(to be written)*" in first and "No series played yet." in first
     assert "2 of 3" in first and "**partial** — 4 of 6 planned runs complete" in first
-    # The lead writes the interpretation; matches played elsewhere are in the document.
-    edited = first.replace("*(to be written)*", "Read by hand.").replace(
-        "Not played (`--matches 0`).", "| played | 100 |"
-    )
-    again = build_report(args, edited)
-    assert "Read by hand." in again and "| played | 100 |" in again
-    assert "kept unchanged" in blocks_of(again)["footer"]
-    # A run finishing changes the runs: the old matches no longer describe them.
+    assert "`toy/hierarchical` vs `toy/ppo`" in blocks_of(first)["study toy"]
+    edited = first.replace("*(to be written)*", "Read by hand.")
     write_run(results, "ppo", 2, [0.1 * i for i in range(10)])
-    changed = build_report(args, edited)
-    assert "Read by hand." in changed and "| played | 100 |" not in changed
-    assert "**partial** — 5 of 6" in changed
+    again = build_report(args, edited, plan=toy)
+    assert "Read by hand." in again and "**partial** — 5 of 6" in again
+
+
+def test_matches_section_reads_the_store(toy: dict[str, Study], results: Path) -> None:
+    runs = discover(toy)
+
+    def series(home: str, away: str, wins: int, draws: int, losses: int) -> Series:
+        return Series(home, away, "v", "v", 10, 0, wins, draws, losses, "c", wins, losses)
+
+    teams = ["hierarchical/seed_0", "hierarchical/seed_1", "ppo/seed_0", "ppo/seed_1"]
+    played = [series(t, "scripted", 1, 1, 8) for t in teams]
+    played += [series(t, "random", 9, 1, 0) for t in teams]
+    played += [series("scripted", "random", 10, 0, 0)]
+    played += [series(h, p, 7, 0, 3) for h in teams[:2] for p in teams[2:]]
+    played += [series(teams[0], teams[1], 5, 0, 5), series(teams[2], teams[3], 5, 0, 5)]
+    store = {"format": 2, "env": "tennis", "series": [s.__dict__ for s in played]}
+    (results / STORE).write_text(json.dumps(store))
+    lines, verdicts = study_matches(toy["toy"], runs)
+    text = "\n".join(lines)
+    assert "15 series, 150 matches (10 per pairing" in text
+    assert "| `hierarchical` vs `ppo` | 2 x 2 | 0.700 [" in text
+    assert "| `hierarchical` vs `ppo` | seed_0 | 7/0/3 |" in text
+    assert "| `hierarchical` | 0.150 [0.150, 0.150] | 0.15, 0.15 | 0.111 [0.111, 0.111] |" in text
+    assert verdicts == [
+        next(v for v in verdicts if v.startswith("toy: `hierarchical` vs `ppo` head-to-head"))
+    ]
+
+
+def test_reproduce_trains_each_run_through_its_study_config(tmp_path: Path) -> None:
+    from benchmarks import reproduce
+
+    run = plan(["soccer_paper"], seeds=1)[2]
+    assert reproduce.command(run)[1:] == [
+        "-m", "rlhc.run", "study=soccer_paper", "critic=twin", "seed=0",
+    ]  # fmt: skip
+    args = reproduce.parse_args(["--study", "soccer_paper", "--seeds", "2", "--jobs", "1"])
+    assert (args.study, args.seeds, args.jobs) == (["soccer_paper"], 2, 1)
+    for bad in (["--seeds", "0"], ["--jobs", "0"], ["--study", "nonesuch"]):
+        with pytest.raises(SystemExit):
+            reproduce.parse_args(bad)
+    # --summaries-only: a summary for every run that has a directory, none for the others.
+    toy = [PlannedRun("toy", "ppo", seed, 100, tmp_path) for seed in (0, 1)]
+    write_run(tmp_path, "ppo", 0, [0.0] * 10)
+    (toy[0].run_dir / "summary.json").unlink()
+    assert reproduce.write_summaries(toy) == 1
+    assert read_summary(toy[0].run_dir) is not None and not toy[1].run_dir.exists()

@@ -215,7 +215,7 @@ def test_the_trainer_applies_the_schedules_to_the_losses(tmp_path: Path) -> None
 def test_the_frame_based_presets_rebuild_the_old_updates(
     env: str, frames: int, worlds: int, minibatch: int
 ) -> None:
-    """``table3=<env>_frames``: the updates of the study in docs/RESULTS.md."""
+    """``table3=<env>_frames``: the updates of the study in docs/RESULTS_v1.md."""
     cfg = load(f"env={env}", f"table3={env}_frames")
     layout = Layout.from_config(cfg)
     assert (layout.frames_per_batch, layout.num_envs, layout.minibatch_frames) == (

@@ -1,76 +1,75 @@
-"""The whole ``RESULTS.md``: status, runs, settings, commands, studies, matches, verdicts.
+"""The whole ``RESULTS.md``: plan, runs, studies, matches, aggregates, claims.
 
-Every number in the file comes from the study's committed files (each run's
-``summary.json``, ``metrics.csv`` and ``.hydra/config.yaml``), except the head-to-head
-matches, which need the runs' checkpoints. The document is a sequence of named blocks
-(:mod:`reporting.blocks`). A rebuild keeps two kinds of block from the previous
-document: the hand-written interpretation, and, when no match is played
-(``--matches 0``) and the runs are unchanged, the matches and their verdicts.
+Every number in the file comes from committed files: each run's ``summary.json``,
+``metrics.csv`` and ``.hydra/config.yaml``, and each study's ``round_robin.json``
+(matches need the runs' checkpoints only to be played: ``--matches N`` plays the
+missing ones into that file first). The document is a sequence of named blocks
+(:mod:`reporting.blocks`); a rebuild keeps the hand-written interpretation.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
 
+import numpy as np
+
+from rlhc.evaluation.stats import t_interval
+
+from .aggregates import aggregates_section
 from .blocks import HAND_WRITTEN, block, blocks_of, body_lines
 from .environment import machine, versions
 from .figures import draw_study_curves
-from .head_to_head import matches_section
+from .formatting import fmt_interval, fmt_reach, table
 from .markdown import drift_lines, finals_section, runs_section, settings_section
-from .runs import StudyRun, discover
-from .statistics import window_points
-from .study import SMOOTHING, STUDIES, THRESHOLD_FRACTION, study_env, table_configs
+from .plan import Study, studies
+from .runs import StudyRun, complete_runs, discover
+from .standings import play, study_matches
+from .statistics import (
+    initial_value,
+    smoothed,
+    smoothed_final,
+    steps_to_reach,
+    threshold,
+    window_points,
+)
+from .study import PLAY_METRIC, SMOOTHING, THRESHOLD_FRACTION, table_configs
 
-#: Blocks that need checkpoints: kept from the previous document when none is played.
-MATCH_BLOCKS = ("matches", "match claims")
 #: The hand-written block, kept from the previous document.
 INTERPRETATION = "interpretation"
 PLACEHOLDER = ["## Interpretation", "", "*(to be written)*"]
 
 
-@dataclass(frozen=True)
-class Previous:
-    """What a rebuild may keep of the document it replaces.
-
-    Attributes:
-        generated: its generated blocks, by name.
-        hand_written: its hand-written blocks, by name.
-    """
-
-    generated: dict[str, str]
-    hand_written: dict[str, str]
-
-    @classmethod
-    def parse(cls, text: str | None) -> Previous:
-        """The blocks of ``text`` (``None``: no previous document)."""
-        if text is None:
-            return cls({}, {})
-        return cls(blocks_of(text), blocks_of(text, HAND_WRITTEN))
-
-
-def build_report(args: argparse.Namespace, previous: str | None = None) -> str:
+def build_report(
+    args: argparse.Namespace,
+    previous: str | None = None,
+    plan: Mapping[str, Study] | None = None,
+) -> str:
     """The Markdown of ``RESULTS.md``; draws each study's curves into ``args.images``.
 
     Args:
-        args: the options of ``benchmarks/report.py`` (``results``, ``matches``, ``out``,
-            ``images``, ``figures``, ``study``, ``threshold_fraction``).
+        args: the options of ``benchmarks/report.py`` (``matches``, ``match_seed``,
+            ``out``, ``images``, ``figures``, ``study``, ``threshold_fraction``).
         previous: the document being replaced (``None``: none), whose hand-written
-            blocks are kept, and its matches when none is played and the runs are equal.
+            blocks are kept.
+        plan: the studies to report (default: ``conf/study``'s, those in ``args.study``).
 
     Returns:
         The report's text (the caller writes it to ``args.out``).
     """
     started = time.perf_counter()
-    old = Previous.parse(previous)
-    runs = discover(args.results)
-    studies = [s for s in STUDIES if s in args.study]
-    planned = sum(STUDIES[s].planned for s in studies)
-    done = sum(r.complete for r in runs if r.study in studies)
-    runs_block = block("runs", what_was_run(runs, studies))
+    kept = blocks_of(previous, HAND_WRITTEN) if previous is not None else {}
+    if plan is None:
+        plan = {name: study for name, study in studies().items() if name in args.study}
+    runs = discover(plan)
+    if args.matches > 0:
+        for study in plan.values():
+            play(study, runs, args.matches, args.match_seed)
+    planned = sum(study.planned for study in plan.values())
+    done = sum(r.complete for r in runs)
     lines = [
         "# Reproduction: RLHC vs PPO",
         "",
@@ -78,28 +77,33 @@ def build_report(args: argparse.Namespace, previous: str | None = None) -> str:
         "(kept when the report is rebuilt). -->",
         "",
         *block("status", [f"Status: {status(done, planned)}."]),
-        *runs_block,
+        *block("plan", plan_section(plan, runs)),
+        *block("runs", what_was_run(runs, plan)),
+        *block("commands", commands(args, plan)),
+        *block("environment", ["## Environment", "", *environment()]),
     ]
     verdicts: list[str] = []
-    study_lines: list[str] = []
-    for study in studies:
+    for study in plan.values():
         section, study_verdicts = study_section(study, runs, args)
-        study_lines += block(f"study {study}", section)
+        lines += block(f"study {study.name}", section)
         verdicts += study_verdicts
-    kept = args.matches <= 0 and all(name in old.generated for name in MATCH_BLOCKS)
-    kept = kept and old.generated.get("runs") == "\n".join(runs_block[1:-2]) + "\n"
-    if kept:
-        match_lines, match_verdicts = body_lines(old.generated["matches"]), []
-        match_claims = body_lines(old.generated["match claims"])
-    else:
-        played, match_verdicts = matches_section(runs, studies, args.matches)
-        match_lines = ["## Head-to-head matches", "", *played]
-        match_claims = [f"- {v}" for v in match_verdicts]
-    claims = [
-        "## Does the paper's claim reproduce?",
+    match_lines = [
+        "## Matches of the final teams",
         "",
-        "The paper reports that RLHC reaches a higher cumulative reward than PPO, faster. "
-        "Generated from the numbers above (alpha = 0.05):",
+        "Per study, a round robin of every final team (one per complete run), the scripted "
+        "team and the random team, kept in the study's `round_robin.json`.",
+        "",
+    ]
+    for study in plan.values():
+        section, match_verdicts = study_matches(study, runs)
+        match_lines += [*section, ""]
+        verdicts += match_verdicts
+    aggregate_lines, aggregate_verdicts = aggregates_section(plan, runs)
+    verdicts += aggregate_verdicts
+    claims = [
+        "## What the numbers say",
+        "",
+        "Generated from the numbers above (alpha = 0.05; intervals 95%):",
         "",
     ]
     if done < planned:
@@ -107,22 +111,35 @@ def build_report(args: argparse.Namespace, previous: str | None = None) -> str:
             f"These statements rest on {done} of {planned} planned runs; they are provisional.",
             "",
         ]
-    interpretation = old.hand_written.get(INTERPRETATION)
+    interpretation = kept.get(INTERPRETATION)
     lines += [
-        *block("commands", commands(args, studies)),
-        *block("environment", ["## Environment", "", *environment()]),
-        *study_lines,
-        *block("matches", match_lines),
+        *block("matches", match_lines[:-1]),
+        *block("aggregates", [*aggregates_intro(), *aggregate_lines[:-1]]),
         *block("claims", [*claims, *[f"- {v}" for v in verdicts]]),
-        *block("match claims", match_claims),
         *block(
             INTERPRETATION,
             body_lines(interpretation) if interpretation is not None else PLACEHOLDER,
             HAND_WRITTEN,
         ),
-        *block("footer", footer(args, time.perf_counter() - started, kept)),
+        *block("footer", footer(args, time.perf_counter() - started)),
     ]
     return "\n".join(lines)
+
+
+def aggregates_intro() -> list[str]:
+    """What the aggregates are (their module's definition, in words)."""
+    return [
+        "## Aggregates over games (rliable)",
+        "",
+        "A run's score: its final team's mean match score against the scripted and the "
+        "random team (wins + draws / 2 per match; one number in [0, 1] per run, the same "
+        "scale in both games). A task is a study. Per critic, the interquartile mean (IQM) "
+        "of every task's runs pooled, with a stratified bootstrap interval (runs resampled "
+        "within each task); per pair of critics, the probability that a run of the first "
+        "outscores a run of the second on a random task (ties half), with its interval "
+        "(Agarwal et al. 2021, computed with scipy's bootstrap).",
+        "",
+    ]
 
 
 def status(done: int, planned: int) -> str:
@@ -135,38 +152,102 @@ def status(done: int, planned: int) -> str:
     )
 
 
-def what_was_run(runs: Sequence[StudyRun], studies: Sequence[str]) -> list[str]:
+def what_was_run(runs: Sequence[StudyRun], plan: Mapping[str, Study]) -> list[str]:
     """How runs were trained, which are complete, and the settings they recorded."""
-    mine = [r for r in runs if r.study in studies]
     return [
         "## What was run",
         "",
-        "Each run is a separate `python -m rlhc.run` process (torch threads: see the "
-        "settings table); `python -m benchmarks.reproduce --jobs` of them train at once. "
-        "A run counts as complete when its `summary.json` records that it reached the "
-        "study's `max_steps` frames (one frame = one step of one world); the summary is "
-        "written after training, from the run's latest checkpoint (for runs trained "
-        "before summaries existed: from the last step of its `metrics.csv`).",
+        "Each run is one `python -m rlhc.run study=<study> critic=<config> seed=<k>` "
+        "process on one core (torch threads: see the settings table), in the directory its "
+        "study config names; two trained at a time on this machine. A run counts as "
+        "complete when its `summary.json` records that it reached the study's "
+        "`max_steps` frames (one frame = one step of one world: an env step).",
         "",
-        *runs_section(runs, studies),
+        *runs_section(runs, plan),
         "",
         "Table 3 settings as recorded in the complete runs' configs:",
         "",
-        *settings_section(mine),
+        *settings_section(runs),
         "",
-        *drift_lines(mine)[:-1],
+        *drift_lines(runs)[:-1],
     ]
 
 
-def commands(args: argparse.Namespace, studies: Sequence[str]) -> list[str]:
+def seconds_per_frame(
+    runs: Sequence[StudyRun], plan: Mapping[str, Study], env: str
+) -> float | None:
+    """Measured training wall time per frame of the game's complete runs (mean)."""
+    rates = [
+        r.wall_time / r.frames
+        for r in runs
+        if r.complete and r.frames and math.isfinite(r.wall_time) and plan[r.study].env == env
+    ]
+    return float(np.mean(rates)) if rates else None
+
+
+def plan_section(plan: Mapping[str, Study], runs: Sequence[StudyRun]) -> list[str]:
+    """The plan with its compute: core-hours per study from measured training rates."""
+    rows = []
+    totals = [0.0, 0.0]
+    for study in plan.values():
+        mine = [r for r in runs if r.study == study.name]
+        done = sum(r.complete for r in mine)
+        rate = seconds_per_frame(runs, plan, study.env)
+        per_run = rate * study.max_steps / 3600 if rate is not None else math.nan
+        remaining = sum(
+            max(study.max_steps - (r.frames or 0), 0) for r in mine if not r.complete
+        ) + study.max_steps * (study.planned - len(mine))
+        left = rate * remaining / 3600 if rate is not None else math.nan
+        totals[0] += per_run * study.planned
+        totals[1] += left
+        rows.append(
+            [
+                f"`{study.name}`",
+                study.title,
+                ", ".join(f"`{c}`" for c in study.configs),
+                str(len(study.seeds)),
+                f"{study.max_steps:,}",
+                f"{done} of {study.planned}",
+                f"{per_run:.2f}",
+                f"{per_run * study.planned:.1f}",
+                f"{left:.1f}",
+            ]
+        )
+    header = [
+        "study",
+        "what",
+        "configs",
+        "seeds",
+        "frames per run",
+        "complete",
+        "core-h per run",
+        "core-h planned",
+        "core-h left",
+    ]
+    return [
+        "## The plan and its compute",
+        "",
+        "Each study is one file `conf/study/<study>.yaml` (game, overrides, critics, seeds, "
+        "where its runs live) and runs as one Hydra multirun. Core-hours per run: the "
+        "measured training wall time per frame of the game's complete runs (one process, "
+        "one core each, two at a time on this machine), times the study's budget.",
+        "",
+        *table(header, rows),
+        "",
+        f"In all: {totals[0]:.1f} core-hours planned, {totals[1]:.1f} left "
+        f"({totals[1] / 2:.1f} h of this 2-core machine).",
+    ]
+
+
+def commands(args: argparse.Namespace, plan: Mapping[str, Study]) -> list[str]:
     """The commands that train the runs and write this report."""
     return [
         "## Commands",
         "",
         "```bash",
-        "python -m benchmarks.reproduce --jobs 2 --study "
-        + " ".join(studies)
-        + "   # trains the runs (resumable; re-run to continue)",
+        *[f"{study.command}   # {study.planned} runs, resumable" for study in plan.values()],
+        "python -m benchmarks.reproduce --jobs 2   # the same runs, one process each",
+        "python -m benchmarks.reproduce --summaries-only   # summary.json of every run",
         command_line(args),
         "```",
     ]
@@ -178,47 +259,120 @@ def environment() -> list[str]:
 
 
 def study_section(
-    study: str, runs: Sequence[StudyRun], args: argparse.Namespace
+    study: Study, runs: Sequence[StudyRun], args: argparse.Namespace
 ) -> tuple[list[str], list[str]]:
-    """A study's heading, figure, finals and tests; also its verdicts."""
+    """A study's heading, figure, finals, tests and training speed; also its verdicts."""
     members = [r for r in runs if r.complete and r.name in table_configs(study)]
-    lines = [f"## Study `{study}` ({study_env(study)})", ""]
-    if not any(r.study == study for r in members):
+    lines = [f"## Study `{study.name}` ({study.env})", "", study.title, ""]
+    if not any(r.study == study.name for r in members):
         return [*lines, "No complete run yet."], []
-    image = args.images.resolve() / f"results_{study}.png"
+    image = args.images.resolve() / f"results_{study.name}.png"
     if args.figures:
-        draw_study_curves(study, members, image)
+        draw_study_curves(study.env, members, image)
     link = os.path.relpath(image, args.out.resolve().parent)
-    section, comparisons, speed = finals_section(study, runs, args.threshold_fraction)
+    section, comparisons = finals_section(study, runs, args.threshold_fraction)
     lines += [
-        f"![{study} curves]({link})",
+        f"![{study.name} curves]({link})",
         "",
-        f"The paper's four metrics, mean over complete seeds with a 95% t band, "
-        f"EMA {SMOOTHING} smoothing. Finals: per run, the mean of the last 10% (by steps) "
-        "of the smoothed curve; tables give the mean over seeds with its 95% t interval. "
-        f"Here that window holds {window_points(members)} logged points per run.",
+        f"The paper's four metrics and {PLAY_METRIC[study.env][1]}, mean over complete "
+        f"seeds with a 95% t band, EMA {SMOOTHING} smoothing. Finals: per run, the mean of "
+        "the last 10% (by steps) of the smoothed curve; tables give the mean over seeds "
+        "with its 95% t interval. Steps to threshold: mean [95% t] of the seeds that "
+        f"reached it. Here the final window holds {window_points(members)} logged points "
+        "per run.",
         "",
         *section,
+        "",
+        *play_and_speed(study, runs, args.threshold_fraction),
     ]
-    return lines, [c.verdict() for c in comparisons] + speed
-
-
-def footer(args: argparse.Namespace, seconds: float, kept_matches: bool) -> list[str]:
-    """How and how fast the report was generated."""
-    lines = ["---", f"Report generated in {seconds:.0f} s by `{command_line(args)}`."]
-    if kept_matches:
-        lines[-1] += (
-            " The head-to-head matches and their verdicts are the previous report's, kept "
-            "unchanged: they need the runs' checkpoints, which are not committed "
-            "(`--matches N` plays them again)."
+    verdicts = [c.verdict() for c in comparisons if c.testable]
+    waiting = sorted({f"`{c.rlhc}` vs `{c.ppo}`" for c in comparisons if not c.testable})
+    if waiting:
+        verdicts.append(
+            "Not testable yet (fewer than 2 complete seeds on a side): " + ", ".join(waiting) + "."
         )
-    return lines
+    return lines, verdicts
+
+
+def play_and_speed(study: Study, runs: Sequence[StudyRun], fraction: float) -> list[str]:
+    """Per configuration: the final play metric, env steps to its threshold, training speed.
+
+    The threshold is ``fraction`` of the way from the mean initial value of every run in
+    the table to the best configuration's mean final value (as for the rewards).
+    """
+    column, title = PLAY_METRIC[study.env]
+    table_runs = {
+        name: members for name in table_configs(study) if (members := complete_runs(runs, name))
+    }
+    finals = {
+        name: [smoothed_final(r.curves(), column) for r in members]
+        for name, members in table_runs.items()
+    }
+    initials = [
+        v for members in table_runs.values() for r in members
+        if (v := initial_value(r.curves(), column)) is not None
+    ]  # fmt: skip
+    means = [
+        float(np.mean([v for v in f if v is not None]))
+        for f in finals.values()
+        if f and None not in f
+    ]
+    level = None
+    if initials and means and max(means) > float(np.mean(initials)):
+        level = threshold(float(np.mean(initials)), max(means), fraction)
+    rows = []
+    for name, members in table_runs.items():
+        reach = [
+            steps_to_reach(*smoothed(r.curves(), column), level) if level is not None else None
+            for r in members
+        ]
+        speeds = [r.frames / r.wall_time for r in members if r.frames and r.wall_time > 0]
+        env_rates = [
+            float(np.nanmean(r.curves().columns["env_steps_per_s"]))
+            for r in members
+            if "env_steps_per_s" in r.curves().columns
+        ]
+        rows.append(
+            [
+                f"`{name}`",
+                fmt_interval(t_interval([v for v in finals[name] if v is not None]), 3),
+                fmt_reach(reach) if level is not None else "—",
+                fmt_interval(t_interval(speeds), 0, fixed=True),
+                fmt_interval(t_interval(env_rates), 0, fixed=True),
+            ]
+        )
+    where = (
+        f"threshold {level:.3f}, {fraction:.0%} of the way from the mean initial value to the "
+        "best configuration's mean final value"
+        if level is not None
+        else "no threshold: no configuration ended above the mean initial value"
+    )
+    header = [
+        "config",
+        f"final {title}",
+        "env steps to threshold",
+        "frames/s (training)",
+        "env steps/s (collection)",
+    ]
+    return [
+        f"Does the team play: final {title} in self-play, and the env steps each seed took "
+        f"to reach it ({where}); training speed: frames per second of training wall time "
+        "(collection + updates) and env steps per second of collection alone (one env step "
+        "= one frame = one decision of one world, all four players). Mean over seeds [95% t]:",
+        "",
+        *table(header, rows),
+    ]
+
+
+def footer(args: argparse.Namespace, seconds: float) -> list[str]:
+    """How and how fast the report was generated."""
+    return ["---", f"Report generated in {seconds:.0f} s by `{command_line(args)}`."]
 
 
 def command_line(args: argparse.Namespace) -> str:
-    """The report command that reproduces this report (default results and output)."""
+    """The report command that reproduces this report (default output)."""
     command = f"python -m benchmarks.report --matches {args.matches}"
-    if args.study != list(STUDIES):
+    if args.study != list(studies()):
         command += " --study " + " ".join(args.study)
     if args.threshold_fraction != THRESHOLD_FRACTION:
         command += f" --threshold-fraction {args.threshold_fraction}"

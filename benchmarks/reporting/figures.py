@@ -1,7 +1,8 @@
 """The report's figures: drawing only; the runs they show are read by the caller.
 
-``RESULTS.md``'s curves per study are :func:`rlhc.plotting.plot_runs`'s;
-``benchmarks/learning.py``'s panels per game are :func:`draw_learning_curves`'s.
+``RESULTS.md``'s curves per study are :func:`rlhc.plotting.plot_groups`'s (the paper's
+four metrics plus whether the teams play); ``benchmarks/learning.py``'s panels per game
+are :func:`draw_learning_curves`'s.
 """
 
 from __future__ import annotations
@@ -9,25 +10,30 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from rlhc.plotting import plot_runs
-from rlhc.runs import Run, aggregate
+from rlhc.plotting import plot_groups
+from rlhc.runs import PAPER_METRICS, Run, aggregate
 
 from .runs import StudyRun
-from .study import GROUP_BY, SMOOTHING
+from .study import PLAY_METRIC, SMOOTHING
 
 
-def draw_study_curves(study: str, members: Sequence[StudyRun], out: Path) -> Path:
-    """The paper's four curves of a study's complete runs (mean over seeds, 95% t band).
+def draw_study_curves(env: str, members: Sequence[StudyRun], out: Path) -> Path:
+    """A study's curves, one line per configuration (mean over seeds, 95% t band).
 
     Args:
-        study: the study's name (picks the config keys telling its configs apart).
-        members: the runs to draw.
+        env: the game (adds its play metric: hits per point, goal rate).
+        members: the complete runs to draw, each labelled ``study/config``.
         out: the PNG to write.
 
     Returns:
         ``out``.
     """
-    return plot_runs([r.path for r in members], out, SMOOTHING, GROUP_BY[study])
+    column, title = PLAY_METRIC[env]
+    metrics = {**PAPER_METRICS, column.rpartition("/")[2]: title}
+    groups: dict[str, list[Run]] = {}
+    for run in members:
+        groups.setdefault(run.name, []).append(run.curves())
+    return plot_groups(groups, out, SMOOTHING, metrics, columns=3)
 
 
 def draw_learning_curves(

@@ -5,9 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 
-import numpy as np
-
-from rlhc.evaluation.stats import MeanInterval
+from rlhc.evaluation.stats import MeanInterval, t_interval
 
 
 def fmt(value: float | None, digits: int = 4, fixed: bool = False) -> str:
@@ -30,11 +28,14 @@ def fmt_interval(ci: MeanInterval, digits: int = 4, fixed: bool = False) -> str:
 
 
 def fmt_reach(reach: Sequence[float | None]) -> str:
-    """Mean steps of the seeds that reached a threshold, and how many did."""
+    """Steps to a threshold of the seeds that reached it: mean [95% t], and how many did.
+
+    Seeds that never reached it are counted, not averaged (their steps are unknown).
+    """
     hits = [r for r in reach if r is not None]
     if not reach:
         return "—"
-    mean = f"{np.mean(hits):,.0f}" if hits else "—"
+    mean = fmt_interval(t_interval(hits), 0, fixed=True) if hits else "—"
     return f"{mean} ({len(hits)}/{len(reach)} seeds)"
 
 

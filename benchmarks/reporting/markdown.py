@@ -7,7 +7,7 @@ them together. The matches' section is :func:`reporting.head_to_head.matches_sec
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -15,9 +15,10 @@ import numpy as np
 from rlhc.evaluation.stats import t_interval
 
 from .formatting import fmt, fmt_interval, fmt_reach, table
+from .plan import Study
 from .runs import StudyRun, complete_runs, config_drift
-from .statistics import Comparison, ConfigFinals, config_finals, fill_reach, finite
-from .study import GROUPS, SMOOTHING, STUDIES, comparisons_of, study_env, table_configs
+from .statistics import Comparison, config_finals, fill_reach, finite
+from .study import GROUPS, SMOOTHING, comparisons_of, table_configs
 
 #: Table 3 of the paper: recorded config key -> its row label.
 SETTINGS = (
@@ -40,12 +41,11 @@ SETTINGS = (
 )
 
 
-def runs_section(runs: Sequence[StudyRun], studies: Sequence[str]) -> list[str]:
+def runs_section(runs: Sequence[StudyRun], plan: Mapping[str, Study]) -> list[str]:
     """Which runs exist, which are complete, and their wall time (from their summaries)."""
     rows = []
-    for name in studies:
-        study = STUDIES[name]
-        for config, overrides in study.configs.items():
+    for name, study in plan.items():
+        for config in study.configs:
             mine = [r for r in runs if r.study == name and r.config == config]
             done = [r for r in mine if r.complete]
             partial = [
@@ -58,10 +58,10 @@ def runs_section(runs: Sequence[StudyRun], studies: Sequence[str]) -> list[str]:
             rows.append(
                 [
                     f"`{name}/{config}`",
-                    "`" + " ".join(overrides) + "`",
+                    f"`study={name} critic={config}`",
                     f"{study.max_steps:,}",
                     ", ".join(f"{f:,}" for f in frames) or "—",
-                    f"{len(done)} of {study.seeds}",
+                    f"{len(done)} of {len(study.seeds)}",
                     ", ".join(str(r.seed) for r in done) or "—",
                     "; ".join(partial) or "—",
                     fmt_interval(t_interval([t for t in times if math.isfinite(t)]), 0, fixed=True),
@@ -104,36 +104,35 @@ def settings_section(runs: Sequence[StudyRun]) -> list[str]:
 
 def drift_lines(runs: Sequence[StudyRun]) -> list[str]:
     """The notes of :func:`reporting.runs.config_drift`, or that there are none."""
-    notes = config_drift(runs)
+    notes, added = config_drift(runs)
+    lines = []
+    if added:
+        lines += [
+            "Options added to the code while the study ran, absent from the configs of the "
+            "runs that started earlier and recorded with one value by the others: "
+            + ", ".join(f"`{key}`" for key in added)
+            + ".",
+            "",
+        ]
     if not notes:
-        return ["Every seed of a configuration recorded the same config (seed aside).", ""]
+        return [*lines, "Otherwise every seed of a configuration recorded the same config.", ""]
     return [
-        "Recorded configs that differ between seeds of one configuration (the code changed "
-        "while the study ran; *absent*: the key did not exist when that run started):",
+        *lines,
+        "Recorded configs that differ between seeds of one configuration (*absent*: the key "
+        "did not exist when that run started):",
         "",
         *[f"- {note}" for note in notes],
         "",
     ]
 
 
-def speed_verdict(rlhc: ConfigFinals, ppo: ConfigFinals, group: str, level: float | None) -> str:
-    """A neutral sentence on the steps each configuration took to reach the threshold."""
-    if level is None:
-        return f"`{rlhc.name}` vs `{ppo.name}`, {group}: no steps-to-threshold (no threshold)."
-    return (
-        f"`{rlhc.name}` vs `{ppo.name}`, {group} steps to reach {fmt(level)}: "
-        f"{fmt_reach(rlhc.reach)} vs {fmt_reach(ppo.reach)} (no test; descriptive)."
-    )
-
-
 def finals_section(
-    study: str, runs: Sequence[StudyRun], fraction: float
-) -> tuple[list[str], list[Comparison], list[str]]:
-    """Per group: the finals table, Welch's tests and steps-to-threshold sentences."""
+    study: Study, runs: Sequence[StudyRun], fraction: float
+) -> tuple[list[str], list[Comparison]]:
+    """Per group: the finals table with steps to threshold; Welch's tests."""
     lines: list[str] = []
     comparisons: list[Comparison] = []
-    speed: list[str] = []
-    for group in GROUPS[study_env(study)]:
+    for group in GROUPS[study.env]:
         tables = [
             config_finals(name, complete_runs(runs, name), group) for name in table_configs(study)
         ]
@@ -168,7 +167,6 @@ def finals_section(
         for rlhc, ppo in comparisons_of(study):
             a, b = by_name[rlhc], by_name[ppo]
             comparisons.append(Comparison(rlhc, ppo, group, tuple(a.reward), tuple(b.reward)))
-            speed.append(speed_verdict(a, b, group, level))
     rows = []
     for c in comparisons:
         result = c.test()
@@ -188,11 +186,12 @@ def finals_section(
             ]
         )
     lines += [
-        "Welch's t-test (two-sided, unequal variances), first config vs second (RLHC vs PPO; "
-        "for the extensions, each extension vs tennis PPO and RLHC). Samples: one value "
+        "Welch's t-test (two-sided, unequal variances), first config vs second (the "
+        "paper's critics pairwise: hierarchical, twin, PPO; for the extensions, each vs "
+        "`tennis_paper`'s hierarchical and PPO). Samples: one value "
         "per completed seed — the mean of the last 10% (by steps) of that run's "
         f"TensorBoard-smoothed (EMA {SMOOTHING}) `<group>/cumulative_reward` curve.",
         "",
         *table(["first vs second", "group", "seeds", "mean difference", "t", "p"], rows),
     ]
-    return lines, comparisons, speed
+    return lines, comparisons

@@ -1,17 +1,27 @@
-"""The reproduction study's plan: which configurations, how many seeds, what budget.
+"""The reproduction's plan, read from the study configs ``conf/study/<name>.yaml``.
 
-:data:`STUDIES` is the single description of the study. ``benchmarks/reproduce.py``
-trains its :func:`plan`; ``benchmarks/report.py`` compares what was trained with it.
+A study config is the single description of a study: the game and its overrides, the
+critics compared and the seeds (``hydra.sweeper.params``), where its runs live
+(``hydra.sweep.dir``), and, through Hydra's composition, the budget. The same file runs
+the study as one Hydra multirun (``python -m rlhc.run -m study=<name>``);
+``python -m benchmarks.reproduce`` trains its :func:`plan` one process per run, and
+``python -m benchmarks.report`` compares what was trained with it.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 
-#: Where ``benchmarks/reproduce.py`` writes the study: ``<study>/<config>/seed_<k>/``.
-RESULTS = Path(__file__).resolve().parents[1] / "results" / "reproduce"
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from omegaconf import DictConfig, ListConfig, OmegaConf
+
+ROOT = Path(__file__).resolve().parents[2]
+STUDY_DIR = ROOT / "conf" / "study"
+#: The swept keys of a study config: one configuration per critic, one run per seed.
+CONFIG_KEY, SEED_KEY = "critic", "seed"
 
 
 @dataclass(frozen=True)
@@ -20,26 +30,32 @@ class PlannedRun:
 
     Attributes:
         study: the study's name (a key of :data:`STUDIES`).
-        config: the configuration's name within the study.
+        config: the configuration's name within the study (its ``critic`` choice).
         seed: the run's seed.
-        overrides: the configuration's Hydra overrides (without seed and budget).
         max_steps: the budget, in frames (one frame = one step of one world).
+        root: the study's run root (``hydra.sweep.dir``), absolute.
     """
 
     study: str
     config: str
     seed: int
-    overrides: tuple[str, ...]
     max_steps: int
+    root: Path
 
     @property
     def name(self) -> str:
         """``study/config``."""
         return f"{self.study}/{self.config}"
 
-    def run_dir(self, results: Path = RESULTS) -> Path:
-        """The run's directory under the study root ``results``."""
-        return results / self.study / self.config / f"seed_{self.seed}"
+    @property
+    def overrides(self) -> tuple[str, ...]:
+        """The ``rlhc.run`` overrides of the run (the study config sets the rest)."""
+        return (f"study={self.study}", f"{CONFIG_KEY}={self.config}", f"{SEED_KEY}={self.seed}")
+
+    @property
+    def run_dir(self) -> Path:
+        """``<root>/<config>/seed_<k>``: where the study config puts the run."""
+        return self.root / self.config / f"seed_{self.seed}"
 
 
 @dataclass(frozen=True)
@@ -47,100 +63,133 @@ class Study:
     """Configurations trained on equal seeds and budget.
 
     Attributes:
-        name: the study's name.
-        configs: configuration name -> its Hydra overrides (one of them ``env=<game>``).
-        seeds: seeds per configuration (``0 .. seeds - 1``).
-        max_steps: frames per run (the paper's Table 3 budget).
+        name: the study's name (its config file's stem).
+        title: what it compares (the config file's opening comment).
+        env: the game.
+        configs: the critics compared, in the config's order.
+        seeds: the seeds per configuration.
+        max_steps: frames per run (composed: Table 3's budget unless the study sets one).
+        root: where its runs live (``hydra.sweep.dir``), absolute.
     """
 
     name: str
-    configs: Mapping[str, tuple[str, ...]]
-    seeds: int
+    title: str
+    env: str
+    configs: tuple[str, ...]
+    seeds: tuple[int, ...]
     max_steps: int
-
-    @property
-    def env(self) -> str:
-        """The game, from the configurations' ``env=`` override.
-
-        Raises:
-            ValueError: a configuration names no game, or the configurations name several.
-        """
-        games = {
-            next((o.split("=", 1)[1] for o in overrides if o.startswith("env=")), None)
-            for overrides in self.configs.values()
-        }
-        if len(games) != 1 or None in games:
-            raise ValueError(f"study {self.name!r}: configs must share one env= override")
-        return str(games.pop())
+    root: Path
 
     @property
     def planned(self) -> int:
         """Runs in the full study (configurations x seeds)."""
-        return len(self.configs) * self.seeds
+        return len(self.configs) * len(self.seeds)
+
+    @property
+    def command(self) -> str:
+        """The multirun that trains the whole study (resumable: re-run to continue)."""
+        return f"python -m rlhc.run -m study={self.name}"
 
     def runs(self, seeds: int | None = None) -> list[PlannedRun]:
         """Its runs, seed-major, so that a partial study compares configs on equal seeds.
 
         Args:
-            seeds: seeds per configuration (default: :attr:`seeds`).
+            seeds: how many of its seeds (default: all).
         """
+        chosen = self.seeds if seeds is None else self.seeds[:seeds]
         return [
-            PlannedRun(self.name, config, seed, overrides, self.max_steps)
-            for seed in range(self.seeds if seeds is None else seeds)
-            for config, overrides in self.configs.items()
+            PlannedRun(self.name, config, seed, self.max_steps, self.root)
+            for seed in chosen
+            for config in self.configs
         ]
 
 
-def _studies(*studies: Study) -> dict[str, Study]:
-    return {study.name: study for study in studies}
+def swept(config: DictConfig | ListConfig, key: str, path: Path) -> list[str]:
+    """The values Hydra's basic sweeper expands ``hydra.sweeper.params.<key>`` to.
+
+    Raises:
+        ValueError: the study config does not sweep ``key``.
+    """
+    params = OmegaConf.select(config, "hydra.sweeper.params") or {}
+    if key not in params:
+        raise ValueError(f"{path}: hydra.sweeper.params must sweep {key!r}, found {list(params)}")
+    (override,) = OverridesParser.create().parse_overrides([f"{key}={params[key]}"])
+    return list(override.sweep_string_iterator())
 
 
-#: The study: tennis and soccer as in the paper, and critics beyond it on tennis.
-STUDIES: dict[str, Study] = _studies(
-    Study(
-        "tennis",
-        {
-            "ppo": ("env=tennis", "critic=ppo", "env.extended_obs=false"),
-            "hierarchical": ("env=tennis", "critic=hierarchical", "env.extended_obs=false"),
-            "ppo_extended": ("env=tennis", "critic=ppo", "env.extended_obs=true"),
-            "hierarchical_extended": ("env=tennis", "critic=hierarchical", "env.extended_obs=true"),
-        },
-        seeds=5,
-        max_steps=200_000,
-    ),
-    Study(
-        "soccer",
-        {
-            "ppo": ("env=soccer", "critic=ppo"),
-            "hierarchical": ("env=soccer", "critic=hierarchical"),
-        },
-        seeds=5,
-        max_steps=500_000,
-    ),
-    Study(
-        "tennis_extensions",
-        {
-            "manager": ("env=tennis", "critic=manager"),
-            "mean": ("env=tennis", "critic=mean"),
-            "hierarchical_k5": ("env=tennis", "critic=hierarchical", "critic.manager_interval=5"),
-        },
-        seeds=3,
-        max_steps=200_000,
-    ),
-)
+def composed(name: str) -> DictConfig:
+    """The training config of the study's first run, as ``python -m rlhc.run`` composes it."""
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    from rlhc.config import register_configs
+
+    register_configs()
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base="1.3"):
+        return compose(config_name="train", overrides=[f"study={name}"])
 
 
-def plan(studies: Iterable[str], seeds: int | None = None) -> list[PlannedRun]:
-    """The runs of ``studies`` in order, each study seed-major.
+def read_study(path: Path) -> Study:
+    """The study a ``conf/study`` file describes (composed once for game and budget).
+
+    Raises:
+        ValueError: it sweeps no critics or seeds, or has no ``hydra.sweep.dir``.
+    """
+    raw = OmegaConf.load(path)
+    root = OmegaConf.select(raw, "hydra.sweep.dir")
+    if not root:
+        raise ValueError(f"{path}: a study config must set hydra.sweep.dir (its runs' root)")
+    title = []  # the opening comment, up to its first command line
+    for line in path.read_text().splitlines():
+        text = line.lstrip("# ").strip()
+        if not line.startswith("#") or text.startswith("python"):
+            break
+        if "@package" not in text:
+            title.append(text)
+    config = composed(path.stem)
+    return Study(
+        name=path.stem,
+        title=" ".join(title) or path.stem,
+        env=str(config.env.name),
+        configs=tuple(swept(raw, CONFIG_KEY, path)),
+        seeds=tuple(int(seed) for seed in swept(raw, SEED_KEY, path)),
+        max_steps=int(config.algo.max_steps),
+        root=(ROOT / str(root)).resolve(),
+    )
+
+
+#: The order of the report: the paper's studies, then those beyond it.
+ORDER = ("tennis_paper", "tennis_extended", "soccer_paper", "tennis_extensions", "soccer_best")
+
+
+def _order(path: Path) -> tuple[int, str]:
+    return (ORDER.index(path.stem) if path.stem in ORDER else len(ORDER), path.stem)
+
+
+def study_names() -> list[str]:
+    """The studies' names in report order, without composing them (command-line choices)."""
+    return [path.stem for path in sorted(STUDY_DIR.glob("*.yaml"), key=_order)]
+
+
+@cache
+def studies() -> dict[str, Study]:
+    """Every study config, in :data:`ORDER` (others after it, by name)."""
+    return {name: read_study(STUDY_DIR / f"{name}.yaml") for name in study_names()}
+
+
+def plan(names: Iterable[str], seeds: int | None = None) -> list[PlannedRun]:
+    """The runs of the named studies in order, each study seed-major.
 
     Args:
-        studies: names of :data:`STUDIES`.
+        names: study names (``conf/study`` stems).
         seeds: seeds per configuration (default: each study's).
 
     Raises:
         KeyError: a name is not a study (the known ones are named).
     """
-    unknown = [name for name in studies if name not in STUDIES]
+    known = studies()
+    unknown = [name for name in names if name not in known]
     if unknown:
-        raise KeyError(f"unknown studies {unknown}; the study has {list(STUDIES)}")
-    return [run for name in studies for run in STUDIES[name].runs(seeds)]
+        raise KeyError(f"unknown studies {unknown}; conf/study has {list(known)}")
+    return [run for name in names for run in known[name].runs(seeds)]

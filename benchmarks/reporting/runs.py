@@ -1,7 +1,9 @@
 """The study's run directories: which exist, which are complete, what they recorded.
 
-``benchmarks/reproduce.py`` writes each run to ``<results>/<study>/<config>/seed_<k>/``
-and, after training, its ``summary.json`` (:mod:`reporting.summary`). A run is complete
+Each run lives in ``<root>/<config>/seed_<k>/`` (``root``: its study config's
+``hydra.sweep.dir``); ``python -m benchmarks.reproduce`` writes its ``summary.json``
+(:mod:`reporting.summary`) after training, and ``--summaries-only`` for runs trained
+otherwise (a multirun). A run is complete
 when its summary says so; a run without a summary is still training (or was never
 finished) and is left out of every statistic. Checkpoints are never read here.
 """
@@ -17,7 +19,7 @@ from typing import Any
 
 from rlhc.runs import METRICS_FILE, Run, differing_keys, read_config, read_metrics
 
-from .plan import STUDIES, PlannedRun, Study
+from .plan import PlannedRun, Study
 from .summary import RunSummary, read_summary
 
 
@@ -99,34 +101,32 @@ def check_summary(planned: PlannedRun, summary: RunSummary | None, path: Path) -
         )
 
 
-def discover(results: Path, studies: Mapping[str, Study] = STUDIES) -> list[StudyRun]:
-    """Every ``<study>/<config>/seed_<k>`` directory under ``results``, in plan order.
+def discover(plan: Mapping[str, Study]) -> list[StudyRun]:
+    """Every ``<root>/<config>/seed_<k>`` directory of the studies, in plan order.
 
     Args:
-        results: the study's root (``benchmarks/results/reproduce`` by default).
-        studies: the plan (:data:`reporting.plan.STUDIES`).
+        plan: the studies (:func:`reporting.plan.studies`, or some of them).
 
     Returns:
         One :class:`StudyRun` per seed directory, complete or not (seeds beyond the
-        plan's count too).
+        plan's too).
 
     Raises:
         ValueError: a summary does not describe its directory's run.
     """
     found = []
-    for study in studies.values():
-        for config, overrides in study.configs.items():
+    for study in plan.values():
+        for config in study.configs:
             seeds = sorted(
                 int(p.name.removeprefix("seed_"))
-                for p in (results / study.name / config).glob("seed_*")
+                for p in (study.root / config).glob("seed_*")
                 if p.is_dir() and p.name.removeprefix("seed_").isdigit()
             )
             for seed in seeds:
-                planned = PlannedRun(study.name, config, seed, overrides, study.max_steps)
-                path = planned.run_dir(results)
-                summary = read_summary(path)
-                check_summary(planned, summary, path)
-                found.append(StudyRun(planned, path, summary))
+                planned = PlannedRun(study.name, config, seed, study.max_steps, study.root)
+                summary = read_summary(planned.run_dir)
+                check_summary(planned, summary, planned.run_dir)
+                found.append(StudyRun(planned, planned.run_dir, summary))
     return found
 
 
@@ -140,18 +140,28 @@ def shown(config: dict[str, Any], key: str) -> str:
     return f"`{config[key]}`" if key in config else "absent"
 
 
-def config_drift(runs: Sequence[StudyRun]) -> list[str]:
+def config_drift(runs: Sequence[StudyRun]) -> tuple[list[str], list[str]]:
     """Config keys whose recorded values differ between seeds of one configuration.
 
-    Such keys come from code that changed while the study ran (e.g. a new option);
-    they are listed so that a reader can judge whether the seeds are comparable.
+    Such keys come from code that changed while the study ran; they are reported so
+    that a reader can judge whether the seeds are comparable.
+
+    Returns:
+        ``(notes, added)``: a note per key whose recorded values differ, and the keys
+        that are only *absent* from some runs' configs while every run that records
+        them holds one value (an option added while the study ran, at its default).
     """
-    notes = []
+    notes: list[str] = []
+    added: set[str] = set()
     for name in dict.fromkeys(r.name for r in runs if r.complete):
         members = [r.curves() for r in complete_runs(runs, name)]
         for key in differing_keys(members):
+            present = {repr(r.config[key]) for r in members if key in r.config}
+            if len(present) == 1:
+                added.add(key)
+                continue
             values = ", ".join(
                 f"seed {r.config.get('seed')}: {shown(r.config, key)}" for r in members
             )
             notes.append(f"`{name}` — `{key}` differs between seeds ({values}).")
-    return notes
+    return notes, sorted(added)

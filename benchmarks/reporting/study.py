@@ -1,47 +1,49 @@
-"""What the report compares in the study: groups, compared pairs, smoothing, windows.
+"""What the report compares in each study: groups, compared pairs, smoothing, windows.
 
 The configurations, seeds and frames per run are the plan's
-(:data:`reporting.plan.STUDIES`); this module adds what only the report needs.
+(:func:`reporting.plan.studies`, read from ``conf/study``); this module adds what only
+the report needs.
 """
 
 from __future__ import annotations
 
-from .plan import STUDIES
+from itertools import combinations
+
+from .plan import Study
 
 SMOOTHING = 0.8  # TensorBoard's EMA weight, as ``python -m rlhc.plot``
 FINAL_FRACTION = 0.1  # the last 10% of each curve, by steps
 THRESHOLD_FRACTION = 0.5  # share of the way from the initial to the best final reward
 ALPHA = 0.05
-#: study -> its group metrics' groups.
+#: game -> its group metrics' groups.
 GROUPS = {"tennis": ("racket",), "soccer": ("striker", "goalie")}
-#: study -> (RLHC config, PPO config) pairs compared by Welch's test and by matches.
-PAIRS: dict[str, list[tuple[str, str]]] = {
-    "tennis": [("hierarchical", "ppo"), ("hierarchical_extended", "ppo_extended")],
-    "soccer": [("hierarchical", "ppo")],
+#: game -> the ``metrics.csv`` column that says whether teams play, and its title.
+PLAY_METRIC = {
+    "tennis": ("events/hits_over_net_per_episode", "hits over the net per point"),
+    "soccer": ("episode_terminated", "goal rate (share of episodes ending in a goal)"),
 }
-#: Studies whose tables also hold configs of another study (``study/config``).
-BORROWED = {"tennis_extensions": ("tennis/ppo", "tennis/hierarchical")}
-#: Config keys that tell a study's configurations apart (plot labels and groups).
-GROUP_BY = {
-    "tennis": ("critic.fusion", "env.extended_obs"),
-    "soccer": ("critic.fusion",),
-    "tennis_extensions": ("critic.fusion", "critic.manager_interval"),
-}
+#: The paper's critic, its baseline, and the optimism control, in comparison order:
+#: each pair (first, second) present in a study is tested, first against second.
+CRITICS = ("hierarchical", "twin", "ppo")
+#: Studies whose tables also hold configs of another study (``study/config``): the
+#: extensions are compared with the paper's tennis critics.
+BORROWED = {"tennis_extensions": ("tennis_paper/hierarchical", "tennis_paper/ppo")}
 
 
-def study_env(study: str) -> str:
-    """The game of a study (from its configs' ``env=`` override)."""
-    return STUDIES[study].env
-
-
-def table_configs(study: str) -> list[str]:
+def table_configs(study: Study) -> list[str]:
     """``study/config`` names in a study's tables (its own, then the borrowed ones)."""
-    return [f"{study}/{c}" for c in STUDIES[study].configs] + list(BORROWED.get(study, ()))
+    own = [f"{study.name}/{c}" for c in study.configs]
+    return own + list(BORROWED.get(study.name, ()))
 
 
-def comparisons_of(study: str) -> list[tuple[str, str]]:
-    """(RLHC, PPO) ``study/config`` pairs tested in a study."""
-    if study in PAIRS:
-        return [(f"{study}/{a}", f"{study}/{b}") for a, b in PAIRS[study]]
-    borrowed = BORROWED.get(study, ())
-    return [(f"{study}/{c}", other) for c in STUDIES[study].configs for other in borrowed]
+def comparisons_of(study: Study) -> list[tuple[str, str]]:
+    """``(first, second)`` ``study/config`` pairs tested in a study.
+
+    The paper's critics pairwise (RLHC vs twin vs PPO, whichever the study trains); an
+    extension study tests each of its configs against the borrowed ones.
+    """
+    if study.name in BORROWED:
+        borrowed = BORROWED[study.name]
+        return [(f"{study.name}/{c}", other) for c in study.configs for other in borrowed]
+    present = [c for c in CRITICS if c in study.configs]
+    return [(f"{study.name}/{a}", f"{study.name}/{b}") for a, b in combinations(present, 2)]

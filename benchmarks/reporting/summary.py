@@ -157,7 +157,8 @@ def recorded_overrides(run_dir: Path) -> tuple[str, ...] | None:
     path = run_dir / OVERRIDES_FILE
     if not path.is_file():
         return None
-    return tuple(str(o) for o in OmegaConf.to_container(OmegaConf.load(path)))
+    recorded = OmegaConf.to_container(OmegaConf.load(path))
+    return tuple(str(o) for o in recorded) if isinstance(recorded, list) else None
 
 
 def _last(columns: dict[str, Any], name: str) -> float | None:
@@ -192,7 +193,8 @@ def summarise(run: PlannedRun, run_dir: Path) -> RunSummary:
     notes: list[str] = []
     metrics = run_dir / METRICS_FILE
     columns = read_metrics(metrics) if metrics.is_file() else {}
-    frames, frames_from = checkpoint_frames(run_dir), "checkpoints/latest.pt"
+    frames = checkpoint_frames(run_dir)
+    frames_from: str | None = "checkpoints/latest.pt"
     if frames is None:
         last_step = _last(columns, "step")
         frames, frames_from = (None, None) if last_step is None else (int(last_step), None)

@@ -1,0 +1,237 @@
+"""Matches of a study's final teams: a round robin, ratings, head-to-head with seed spread.
+
+Per study, every final team (one per complete run) plays every other and the built-in
+``scripted`` and ``random`` teams (:mod:`reporting.tournament`); the series are kept in
+the study's ``round_robin.json`` (committed), so the report rebuilds without
+checkpoints. From that file:
+
+* an Elo-scale rating of every team (Bradley-Terry fit, bootstrap interval);
+* each configuration's score against the built-in teams, one value per seed, averaged
+  with a 95% t interval (the per-run scores also feed the aggregates,
+  :mod:`reporting.aggregates`);
+* head-to-head between the compared configurations: the score of one over all seed
+  pairs, with an interval that resamples seeds on both sides (so it includes the
+  spread between seeds), and the seed-k vs seed-k series.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from rlhc.evaluation.stats import t_interval
+
+from .formatting import fmt_interval, table
+from .plan import Study
+from .ratings import cross_score, paired_scores, ratings
+from .runs import StudyRun, complete_runs
+from .study import comparisons_of
+from .tournament import Entrant, Record, Series, load_series, play_round_robin
+
+#: The study's series, next to its runs.
+STORE = "round_robin.json"
+#: Built-in teams every final team meets.
+BUILT_IN = ("scripted", "random")
+
+
+def store_of(study: Study) -> Path:
+    """The study's ``round_robin.json``."""
+    return study.root / STORE
+
+
+def team_name(run: StudyRun) -> str:
+    """``<config>/seed_<k>``: a final team's name in the round robin."""
+    return f"{run.config}/seed_{run.seed}"
+
+
+def entrants(study: Study, runs: Sequence[StudyRun]) -> list[Entrant]:
+    """The study's complete runs' final teams, then the built-in teams."""
+    mine = [r for r in runs if r.study == study.name and r.complete]
+    return [Entrant(team_name(r), str(r.path)) for r in mine] + [
+        Entrant(name, name) for name in BUILT_IN
+    ]
+
+
+def play(study: Study, runs: Sequence[StudyRun], matches: int, seed: int) -> None:
+    """Play the study's missing pairings into its store (needs the runs' checkpoints).
+
+    Raises:
+        FileNotFoundError: a complete run keeps no checkpoint (it is named).
+    """
+    from rlhc.checkpoint import CHECKPOINT_DIR, LATEST
+
+    mine = [r for r in runs if r.study == study.name and r.complete]
+    for run in mine:
+        if not (run.path / CHECKPOINT_DIR / LATEST).exists():
+            raise FileNotFoundError(
+                f"{run.path} keeps no {CHECKPOINT_DIR}/{LATEST}: matches need the runs' "
+                "checkpoints (not committed); train the run, or pass --matches 0 to "
+                "report the committed series only"
+            )
+    play_round_robin(study.env, entrants(study, runs), matches, seed, store_of(study))
+
+
+@dataclass(frozen=True)
+class BuiltInScores:
+    """Per-seed records of one configuration against one built-in team."""
+
+    config: str
+    opponent: str
+    seeds: tuple[int, ...]
+    records: tuple[Record, ...]
+
+    @property
+    def scores(self) -> tuple[float, ...]:
+        """Match score per seed (wins + draws / 2, per match)."""
+        return tuple(r.score for r in self.records)
+
+    @property
+    def points_shares(self) -> tuple[float, ...]:
+        """Share of the points won per seed (seeds whose matches scored none left out)."""
+        return tuple(s for r in self.records if math.isfinite(s := r.points_share))
+
+
+def built_in_scores(
+    series: Sequence[Series], runs: Sequence[StudyRun], name: str, opponent: str
+) -> BuiltInScores:
+    """The score of each complete run of ``study/config`` ``name`` against ``opponent``.
+
+    A run whose series against ``opponent`` is not in the store is left out.
+    """
+    seeds, records = [], []
+    for run in complete_runs(runs, name):
+        record = record_against(series, team_name(run), opponent)
+        if record is not None:
+            seeds.append(run.seed)
+            records.append(record)
+    return BuiltInScores(name, opponent, tuple(seeds), tuple(records))
+
+
+def record_against(series: Sequence[Series], team: str, opponent: str) -> Record | None:
+    """``team``'s record against ``opponent`` (``None``: they have not played)."""
+    for s in series:
+        if {s.home, s.away} == {team, opponent}:
+            return s.record_of(team)
+    return None
+
+
+def local(name: str, study: str) -> str | None:
+    """``config`` of ``study/config`` if it is this study's, else ``None`` (borrowed)."""
+    owner, _, config = name.partition("/")
+    return config if owner == study else None
+
+
+def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], list[str]]:
+    """A study's match section and its head-to-head verdicts (from the store only)."""
+    series = load_series(store_of(study)) if store_of(study).is_file() else []
+    heading = [f"### `{study.name}` ({study.env})", ""]
+    teams = {team_name(r) for r in runs if r.study == study.name and r.complete}
+    series = [s for s in series if {s.home, s.away} <= teams | set(BUILT_IN)]
+    if not series:
+        return [*heading, "No series played yet."], []
+    per_pairing = sorted({s.matches for s in series})
+    lines = [
+        *heading,
+        f"{len(series)} series, {sum(s.matches for s in series):,} matches "
+        f"({', '.join(map(str, per_pairing))} per pairing; sides swapped every match, "
+        "deterministic actions).",
+        "",
+        *ratings_table(series),
+        "",
+        *built_in_table(study, series, runs),
+        "",
+    ]
+    verdicts: list[str] = []
+    head_rows, pair_rows = [], []
+    for first, second in comparisons_of(study):
+        a, b = local(first, study.name), local(second, study.name)
+        if a is None or b is None:
+            continue  # borrowed configs live in another study's round robin
+        a_names = sorted(t for t in teams if t.startswith(f"{a}/"))
+        b_names = sorted(t for t in teams if t.startswith(f"{b}/"))
+        if not a_names or not b_names:
+            continue
+        label = f"`{a}` vs `{b}`"
+        estimate = cross_score(series, a_names, b_names)
+        head_rows.append(
+            [
+                label,
+                f"{len(a_names)} x {len(b_names)}",
+                f"{estimate.value:.3f} [{estimate.low:.3f}, {estimate.high:.3f}]",
+            ]
+        )
+        verdicts.append(head_to_head_verdict(f"{study.name}: {label}", estimate))
+        for row in paired_scores(series, a_names, b_names):
+            pair_rows.append([label, *row.cells()])
+    lines += [
+        "Head-to-head, first configuration's score against the second over every pair of "
+        "their seeds; the 95% interval resamples the seeds of both sides and the matches "
+        "within each pair (two-level bootstrap), so it includes the spread between seeds:",
+        "",
+        *table(["first vs second", "teams", "score [95% CI]"], head_rows),
+        "",
+        "The same pairings, seed k against seed k (score with its 95% Wilson interval over "
+        "the pair's matches):",
+        "",
+        *table(["first vs second", "seed", "W/D/L of first", "score [95% Wilson]"], pair_rows),
+    ]
+    return lines, verdicts
+
+
+def ratings_table(series: Sequence[Series]) -> list[str]:
+    """Every team's Elo-scale rating, ``random`` anchored at 0."""
+    rows = [
+        [
+            f"`{row.name}`",
+            f"{row.rating:,.0f} [{row.low:,.0f}, {row.high:,.0f}]",
+            str(row.matches),
+            f"{row.score:.3f}",
+        ]
+        for row in ratings(series)
+    ]
+    return [
+        "Ratings: a Bradley-Terry fit of every series on the Elo scale (a 400-point gap: "
+        "10 to 1 odds; draws count half), `random` anchored at 0, 95% parametric bootstrap "
+        "interval:",
+        "",
+        *table(["team", "rating [95% CI]", "matches", "score"], rows),
+    ]
+
+
+def built_in_table(study: Study, series: Sequence[Series], runs: Sequence[StudyRun]) -> list[str]:
+    """Each configuration's per-seed scores against the built-in teams."""
+    rows = []
+    for config in study.configs:
+        cells = [f"`{config}`"]
+        for opponent in BUILT_IN:
+            found = built_in_scores(series, runs, f"{study.name}/{config}", opponent)
+            per_seed = ", ".join(f"{s:.2f}" for s in found.scores) or "—"
+            cells += [
+                fmt_interval(t_interval(found.scores), 3),
+                per_seed,
+                fmt_interval(t_interval(found.points_shares), 3),
+            ]
+        rows.append(cells)
+    header = ["config"]
+    for opponent in BUILT_IN:
+        header += [f"score vs {opponent}", "per seed", f"points won vs {opponent}"]
+    return [
+        "Against the built-in teams, one value per seed, mean [95% t] over seeds: the match "
+        "score (wins + draws / 2 per match) and the share of the points (soccer: goals) won:",
+        "",
+        *table(header, rows),
+    ]
+
+
+def head_to_head_verdict(label: str, estimate: object) -> str:
+    """A neutral sentence on a head-to-head score and its seed-spread interval."""
+    value, low, high = (float(getattr(estimate, k)) for k in ("value", "low", "high"))
+    if low > 0.5:
+        how = "the first scores higher than the second"
+    elif high < 0.5:
+        how = "the first scores lower than the second"
+    else:
+        how = "not distinguishable from an even 0.5"
+    return f"{label} head-to-head: {how} (score {value:.3f}, 95% CI [{low:.3f}, {high:.3f}])."
