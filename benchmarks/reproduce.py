@@ -21,6 +21,7 @@ Usage (from the repository root)::
 from __future__ import annotations
 
 import argparse
+import shlex
 import subprocess
 import sys
 import time
@@ -53,7 +54,8 @@ def execute(run: PlannedRun) -> tuple[PlannedRun, int, float]:
     run.run_dir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     with (run.run_dir / TRAIN_LOG).open("a") as log:
-        log.write(f"code version: {code_version()}\ncommand: {' '.join(command(run)[1:])}\n")
+        shown = shlex.join(["python", *command(run)[1:]])  # as a user types it
+        log.write(f"code version: {code_version()}\ncommand: {shown}\n")
         log.flush()
         code = subprocess.call(command(run), cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
     write_summary(run.run_dir, summarise(run, run.run_dir))

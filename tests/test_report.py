@@ -13,7 +13,7 @@ import pytest
 from benchmarks import report as report_cli
 from benchmarks.reporting.blocks import HAND_WRITTEN, block, blocks_of, body_lines
 from benchmarks.reporting.document import build_report, command_line
-from benchmarks.reporting.formatting import fmt, fmt_interval, fmt_reach, table
+from benchmarks.reporting.formatting import fmt, fmt_interval, fmt_reach, share_interval, table
 from benchmarks.reporting.markdown import runs_section
 from benchmarks.reporting.plan import PlannedRun, Study, plan, read_study, studies
 from benchmarks.reporting.runs import complete_runs, discover
@@ -279,6 +279,9 @@ def test_formatting() -> None:
     assert fmt(math.nan) == "—" and fmt(None) == "—"
     assert fmt_reach([10.0, None, 30.0]) == "20 [-107, 147] (2/3 seeds)"
     assert fmt_reach([None, None]) == "— (0/2 seeds)"
+    clipped = share_interval([0.0, 0.05, 0.3])
+    assert (clipped.low, clipped.high) == (0.0, pytest.approx(t_interval([0.0, 0.05, 0.3]).high))
+    assert share_interval([0.9, 1.0, 0.2]).high == 1.0
     assert table(["a", "b"], [["1", "2"]]) == ["| a | b |", "|---|---|", "| 1 | 2 |"]
 
 

@@ -279,7 +279,9 @@ def study_section(
         "the last 10% (by steps) of the smoothed curve; tables give the mean over seeds "
         "with its 95% t interval. Steps to threshold: mean [95% t] of the seeds that "
         f"reached it. Here the final window holds {window_points(members)} logged points "
-        "per run.",
+        "per run. In self-play both teams are the same policy, so a group's cumulative "
+        "reward says how the game's reward splits between roles and sides, not how well the "
+        "team plays; the matches below measure that.",
         "",
         *section,
         "",

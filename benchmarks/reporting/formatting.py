@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Iterable, Sequence
 
@@ -25,6 +26,12 @@ def fmt_interval(ci: MeanInterval, digits: int = 4, fixed: bool = False) -> str:
         return f"{fmt(ci.mean, digits, fixed)} (n=1, no interval)"
     low, high = fmt(ci.low, digits, fixed), fmt(ci.high, digits, fixed)
     return f"{fmt(ci.mean, digits, fixed)} [{low}, {high}]"
+
+
+def share_interval(values: Sequence[float]) -> MeanInterval:
+    """The t interval of shares (scores, rates), clipped to ``[0, 1]`` where they live."""
+    ci = t_interval(values)
+    return dataclasses.replace(ci, low=max(ci.low, 0.0), high=min(ci.high, 1.0))
 
 
 def fmt_reach(reach: Sequence[float | None]) -> str:

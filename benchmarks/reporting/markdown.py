@@ -55,6 +55,9 @@ def runs_section(runs: Sequence[StudyRun], plan: Mapping[str, Study]) -> list[st
             ]
             frames = sorted({r.frames for r in done if r.frames is not None})
             times = [r.wall_time for r in done]
+            versions = dict.fromkeys(
+                v[:7] for r in done if r.summary for v in (r.summary.code_versions or ())
+            )
             rows.append(
                 [
                     f"`{name}/{config}`",
@@ -65,6 +68,7 @@ def runs_section(runs: Sequence[StudyRun], plan: Mapping[str, Study]) -> list[st
                     ", ".join(str(r.seed) for r in done) or "—",
                     "; ".join(partial) or "—",
                     fmt_interval(t_interval([t for t in times if math.isfinite(t)]), 0, fixed=True),
+                    ", ".join(f"`{v}`" for v in versions) or "—",
                 ]
             )
     header = [
@@ -76,6 +80,7 @@ def runs_section(runs: Sequence[StudyRun], plan: Mapping[str, Study]) -> list[st
         "seeds",
         "unfinished (excluded)",
         "wall time per run, s",
+        "code versions (commits trained at)",
     ]
     total = sum(r.wall_time for r in runs if r.complete)
     return [

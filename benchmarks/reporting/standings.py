@@ -21,9 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from rlhc.evaluation.stats import t_interval
-
-from .formatting import fmt_interval, table
+from .formatting import fmt_interval, share_interval, table
 from .plan import Study
 from .ratings import cross_score, paired_scores, ratings
 from .runs import StudyRun, complete_runs
@@ -209,17 +207,18 @@ def built_in_table(study: Study, series: Sequence[Series], runs: Sequence[StudyR
             found = built_in_scores(series, runs, f"{study.name}/{config}", opponent)
             per_seed = ", ".join(f"{s:.2f}" for s in found.scores) or "—"
             cells += [
-                fmt_interval(t_interval(found.scores), 3),
+                fmt_interval(share_interval(found.scores), 3),
                 per_seed,
-                fmt_interval(t_interval(found.points_shares), 3),
+                fmt_interval(share_interval(found.points_shares), 3),
             ]
         rows.append(cells)
     header = ["config"]
     for opponent in BUILT_IN:
         header += [f"score vs {opponent}", "per seed", f"points won vs {opponent}"]
     return [
-        "Against the built-in teams, one value per seed, mean [95% t] over seeds: the match "
-        "score (wins + draws / 2 per match) and the share of the points (soccer: goals) won:",
+        "Against the built-in teams, one value per seed, mean [95% t, clipped to [0, 1]] over "
+        "seeds: the match score (wins + draws / 2 per match) and the share of the points "
+        "(soccer: goals) won:",
         "",
         *table(header, rows),
     ]
