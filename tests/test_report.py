@@ -378,3 +378,14 @@ def test_reproduce_trains_each_run_through_its_study_config(tmp_path: Path) -> N
     (toy[0].run_dir / "summary.json").unlink()
     assert reproduce.write_summaries(toy) == 1
     assert read_summary(toy[0].run_dir) is not None and not toy[1].run_dir.exists()
+
+
+def test_plan_section_costs_each_study_from_its_measured_rate(toy: dict[str, Study]) -> None:
+    from benchmarks.reporting.document import plan_section, seconds_per_frame
+
+    # 4 complete runs of 100 frames in 50 s each: 0.5 s per frame, 50 s per run.
+    # Left: hierarchical seed 2 (70 frames) and ppo seed 2 (100) = 170 frames = 85 s.
+    assert seconds_per_frame(discover(toy)) == 0.5
+    text = "\n".join(plan_section(toy, discover(toy)))
+    assert "| 4 of 6 | 0.01 | 0.1 | 0.0 |" in text
+    assert "In all: 0.1 core-hours planned, 0.0 left" in text

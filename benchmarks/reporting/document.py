@@ -173,14 +173,12 @@ def what_was_run(runs: Sequence[StudyRun], plan: Mapping[str, Study]) -> list[st
     ]
 
 
-def seconds_per_frame(
-    runs: Sequence[StudyRun], plan: Mapping[str, Study], env: str
-) -> float | None:
-    """Measured training wall time per frame of the game's complete runs (mean)."""
+def seconds_per_frame(runs: Sequence[StudyRun]) -> float | None:
+    """Measured training wall time per frame of the complete ``runs`` (mean over runs)."""
     rates = [
         r.wall_time / r.frames
         for r in runs
-        if r.complete and r.frames and math.isfinite(r.wall_time) and plan[r.study].env == env
+        if r.complete and r.frames and math.isfinite(r.wall_time)
     ]
     return float(np.mean(rates)) if rates else None
 
@@ -192,7 +190,9 @@ def plan_section(plan: Mapping[str, Study], runs: Sequence[StudyRun]) -> list[st
     for study in plan.values():
         mine = [r for r in runs if r.study == study.name]
         done = sum(r.complete for r in mine)
-        rate = seconds_per_frame(runs, plan, study.env)
+        rate = seconds_per_frame(mine)  # this study's rate, else its game's
+        if rate is None:
+            rate = seconds_per_frame([r for r in runs if plan[r.study].env == study.env])
         per_run = rate * study.max_steps / 3600 if rate is not None else math.nan
         remaining = sum(
             max(study.max_steps - (r.frames or 0), 0) for r in mine if not r.complete
@@ -229,8 +229,9 @@ def plan_section(plan: Mapping[str, Study], runs: Sequence[StudyRun]) -> list[st
         "",
         "Each study is one file `conf/study/<study>.yaml` (game, overrides, critics, seeds, "
         "where its runs live) and runs as one Hydra multirun. Core-hours per run: the "
-        "measured training wall time per frame of the game's complete runs (one process, "
-        "one core each, two at a time on this machine), times the study's budget.",
+        "measured training wall time per frame of the study's complete runs (of the game's, "
+        "for a study without one; one process and one core each, two at a time on this "
+        "machine), times the study's budget.",
         "",
         *table(header, rows),
         "",
