@@ -358,6 +358,9 @@ def test_matches_section_reads_the_store(toy: dict[str, Study], results: Path) -
     assert verdicts == [
         next(v for v in verdicts if v.startswith("toy: `hierarchical` vs `ppo` head-to-head"))
     ]
+    # One seed a side: the interval cannot include seed spread, so no verdict is drawn.
+    lines, verdicts = study_matches(toy["toy"], [r for r in runs if r.seed == 0])
+    assert verdicts == [] and "one seed on a side: no seed spread" in "\n".join(lines)
 
 
 def test_reproduce_trains_each_run_through_its_study_config(tmp_path: Path) -> None:

@@ -153,14 +153,12 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
             continue
         label = f"`{a}` vs `{b}`"
         estimate = cross_score(series, a_names, b_names)
-        head_rows.append(
-            [
-                label,
-                f"{len(a_names)} x {len(b_names)}",
-                f"{estimate.value:.3f} [{estimate.low:.3f}, {estimate.high:.3f}]",
-            ]
-        )
-        verdicts.append(head_to_head_verdict(f"{study.name}: {label}", estimate))
+        cell = f"{estimate.value:.3f} [{estimate.low:.3f}, {estimate.high:.3f}]"
+        if min(len(a_names), len(b_names)) < 2:  # no seed spread to resample on that side
+            cell += " (one seed on a side: no seed spread in the interval, no verdict)"
+        else:
+            verdicts.append(head_to_head_verdict(f"{study.name}: {label}", estimate))
+        head_rows.append([label, f"{len(a_names)} x {len(b_names)}", cell])
         for row in paired_scores(series, a_names, b_names):
             pair_rows.append([label, *row.cells()])
     lines += [
