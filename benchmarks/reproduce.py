@@ -6,7 +6,10 @@ per core), in the directory its study config names (``<root>/<config>/seed_<k>/`
 study config sets ``resume=auto``, so an unfinished run continues from its latest
 checkpoint. After each process the run's ``summary.json``
 (:mod:`benchmarks.reporting.summary`: frames, budget, overrides, code versions, complete
-or not) is written; the report reads it. A run whose summary says complete is skipped.
+or not) is written; the report reads it. A complete run keeps its final team
+(``final_team.pt``, :mod:`rlhc.final_team`: written by the trainer, or here from its
+last checkpoint if the trainer predates it), committed with the run so that the round
+robin can pit it against runs trained later. A run whose summary says complete is skipped.
 The same studies also run as Hydra multiruns (``python -m rlhc.run -m study=<name>``);
 ``--summaries-only`` then writes their summaries.
 
@@ -31,11 +34,24 @@ from concurrent.futures import ThreadPoolExecutor
 from benchmarks.reporting.plan import ROOT, PlannedRun, plan, study_names
 from benchmarks.reporting.summary import (
     TRAIN_LOG,
+    RunSummary,
     code_version,
     read_summary,
     summarise,
     write_summary,
 )
+from rlhc.checkpoint import checkpoint_candidates
+from rlhc.final_team import export_team, team_file
+
+
+def record(run: PlannedRun) -> RunSummary:
+    """Write the run's ``summary.json`` and, if it is complete, make sure its final team
+    is kept (exported from its newest checkpoint when missing); its summary."""
+    summary = summarise(run, run.run_dir)
+    write_summary(run.run_dir, summary)
+    if summary.completed and team_file(run.run_dir) is None and checkpoint_candidates(run.run_dir):
+        export_team(run.run_dir)
+    return summary
 
 
 def is_done(run: PlannedRun) -> bool:
@@ -58,16 +74,17 @@ def execute(run: PlannedRun) -> tuple[PlannedRun, int, float]:
         log.write(f"code version: {code_version()}\ncommand: {shown}\n")
         log.flush()
         code = subprocess.call(command(run), cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
-    write_summary(run.run_dir, summarise(run, run.run_dir))
+    record(run)
     return run, code, time.perf_counter() - start
 
 
 def write_summaries(runs: Sequence[PlannedRun]) -> int:
-    """``summary.json`` of every run that has a directory, from its files; how many."""
+    """``summary.json`` of every run that has a directory, from its files (and the final
+    team of a complete one, as :func:`record`); how many."""
     written = 0
     for run in runs:
         if run.run_dir.is_dir():
-            write_summary(run.run_dir, summarise(run, run.run_dir))
+            record(run)
             written += 1
     return written
 

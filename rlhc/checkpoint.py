@@ -96,6 +96,24 @@ def save_checkpoint(path: Path, state: dict[str, Any]) -> None:
     if path.name == LATEST:
         raise ValueError(f"checkpoint path {str(path)!r}: {LATEST} is the link, name the file")
     directory = path.parent
+    # write_atomically persists the new name before the link can point at it.
+    write_atomically(path, state)
+    link = _temporary(directory / LATEST)
+    try:
+        link.symlink_to(path.name)
+        os.replace(link, directory / LATEST)
+    finally:
+        link.unlink(missing_ok=True)
+    _fsync_directory(directory)
+
+
+def write_atomically(path: Path, state: Mapping[str, Any]) -> None:
+    """Write ``state`` (plus ``format_version``) to ``path``: complete, or not at all.
+
+    A hidden temporary file in the same directory is written, flushed to disk and
+    renamed over ``path``; the directory entry is flushed too.
+    """
+    directory = path.parent
     directory.mkdir(parents=True, exist_ok=True)
     tmp = _temporary(path)
     try:
@@ -106,14 +124,6 @@ def save_checkpoint(path: Path, state: dict[str, Any]) -> None:
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
-    # Persist the new name before the link can point at it.
-    _fsync_directory(directory)
-    link = _temporary(directory / LATEST)
-    try:
-        link.symlink_to(path.name)
-        os.replace(link, directory / LATEST)
-    finally:
-        link.unlink(missing_ok=True)
     _fsync_directory(directory)
 
 

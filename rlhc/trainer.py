@@ -87,6 +87,7 @@ from rlhc.envs.keys import (
     TERMINATED,
     WORKER_VALUE,
 )
+from rlhc.final_team import save_team
 from rlhc.interrupt import StopSignals, TrainingInterrupted
 from rlhc.league import LEARNER, LEARNER_TEAM, OPPONENT, League, LeaguePolicy
 from rlhc.loggers import MetricLogger, ProgressLines
@@ -695,10 +696,16 @@ class Trainer:
         }
 
     def save(self) -> Path:
-        """Write a checkpoint (rank 0 only: the others hold the same state); its path."""
+        """Write a checkpoint (rank 0 only: the others hold the same state); its path.
+
+        At the end of the budget the final team (:mod:`rlhc.final_team`) is written too.
+        """
         path = self.run_dir / CHECKPOINT_DIR / f"step_{self.frames:09d}.pt"
         if self.processes.main:
-            save_checkpoint(path, self.state())
+            state = self.state()
+            save_checkpoint(path, state)
+            if self._finished():
+                save_team(self.run_dir, state)
         return path
 
     def _restore(self, state: dict[str, Any]) -> None:

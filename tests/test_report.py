@@ -17,6 +17,7 @@ from benchmarks.reporting.formatting import fmt, fmt_interval, fmt_reach, share_
 from benchmarks.reporting.markdown import runs_section
 from benchmarks.reporting.plan import PlannedRun, Study, plan, read_study, studies
 from benchmarks.reporting.runs import complete_runs, discover
+from benchmarks.reporting.standings import BUILT_IN as BUILT_INS
 from benchmarks.reporting.standings import STORE, study_matches
 from benchmarks.reporting.statistics import (
     Comparison,
@@ -363,6 +364,37 @@ def test_matches_section_reads_the_store(toy: dict[str, Study], results: Path) -
     assert verdicts == [] and "one seed on a side: no seed spread" in "\n".join(lines)
 
 
+def test_teams_without_weights_keep_their_series_and_miss_only_new_pairings(
+    toy: dict[str, Study], results: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from benchmarks.reporting import standings
+    from rlhc.final_team import save_team
+
+    runs = discover(toy)
+    teams = ["hierarchical/seed_0", "hierarchical/seed_1", "ppo/seed_0", "ppo/seed_1"]
+    # hierarchical/seed_1 and ppo/seed_1 were trained later: they never met seed_0 of the
+    # other critic, whose weights are gone (no final team, no checkpoint).
+    for team in teams[1::2]:
+        state = {"env": "tennis", "config": {}, "frames": 100, "actors": {}, "env_transform": {}}
+        save_team(results / team, state)
+    played = [Series(h, p, "v", "v", 10, 0, 7, 0, 3, "c", 7, 3) for h, p in
+              [(teams[0], teams[2]), (teams[1], teams[3]), (teams[1], teams[2])]]  # fmt: skip
+    played += [Series(t, o, "v", "v", 10, 0, 5, 0, 5, "c") for t in teams for o in BUILT_INS]
+    store = {"format": 2, "env": "tennis", "series": [x.__dict__ for x in played]}
+    (results / STORE).write_text(json.dumps(store))
+    text = "\n".join(study_matches(toy["toy"], runs)[0])
+    assert "| `hierarchical` vs `ppo` | 2 x 2 (3 of 4 pairs played) | 0.700 [" in text
+    assert "Not played (1 pairs" in text and "`hierarchical/seed_0` vs `ppo/seed_1`" in text
+    assert "weights are lost" in text and "`hierarchical/seed_0`, `ppo/seed_0`." in text
+    # Only the teams with weights on disk enter the next round robin.
+    entered: list[list[str]] = []
+    monkeypatch.setattr(
+        standings, "play_round_robin", lambda env, e, *rest: entered.append([x.name for x in e])
+    )
+    standings.play(toy["toy"], runs, 2, 0)
+    assert entered == [["hierarchical/seed_1", "ppo/seed_1", *BUILT_INS]]
+
+
 def test_reproduce_trains_each_run_through_its_study_config(tmp_path: Path) -> None:
     from benchmarks import reproduce
 
@@ -381,6 +413,24 @@ def test_reproduce_trains_each_run_through_its_study_config(tmp_path: Path) -> N
     (toy[0].run_dir / "summary.json").unlink()
     assert reproduce.write_summaries(toy) == 1
     assert read_summary(toy[0].run_dir) is not None and not toy[1].run_dir.exists()
+    assert not (toy[0].run_dir / "final_team.pt").exists()  # no checkpoint to take it from
+
+
+def test_reproduce_keeps_the_final_team_of_a_complete_run(tmp_path: Path) -> None:
+    from benchmarks import reproduce
+    from rlhc.checkpoint import save_checkpoint
+    from rlhc.final_team import TEAM_FILE, load_team
+
+    state = {"env": "tennis", "config": {}, "actors": {}, "env_transform": {}, "optimizer": {}}
+    done, partial = (PlannedRun("toy", "ppo", seed, 100, tmp_path) for seed in (0, 1))
+    write_run(tmp_path, "ppo", 0, [0.0] * 10)
+    write_run(tmp_path, "ppo", 1, [0.0] * 5)
+    save_checkpoint(done.run_dir / "checkpoints" / "step_000000100.pt", {**state, "frames": 100})
+    save_checkpoint(partial.run_dir / "checkpoints" / "step_000000050.pt", {**state, "frames": 50})
+    assert reproduce.write_summaries([done, partial]) == 2
+    team = load_team(done.run_dir)
+    assert Path(team["path"]).name == TEAM_FILE and "optimizer" not in team
+    assert not (partial.run_dir / TEAM_FILE).exists()  # unfinished: no final team yet
 
 
 def test_plan_section_costs_each_study_from_its_measured_rate(toy: dict[str, Study]) -> None:

@@ -16,7 +16,13 @@ import numpy as np
 import pytest
 
 from benchmarks.reporting import tournament
-from benchmarks.reporting.ratings import Rating, cross_score, paired_scores, ratings
+from benchmarks.reporting.ratings import (
+    Rating,
+    cross_score,
+    missing_pairings,
+    paired_scores,
+    ratings,
+)
 from benchmarks.reporting.tournament import (
     Entrant,
     LoadedEntrant,
@@ -203,6 +209,29 @@ def test_a_missing_pairing_is_named() -> None:
         paired_scores([s for s in series if (s.home, s.away) != (A[1], B[1])], A, B)
     with pytest.raises(ValueError, match="disjoint"):
         cross_score(series, A, A)
+
+
+def test_missing_pairs_are_left_out_when_allowed() -> None:
+    # Two blocks, as when seeds 0-1 were trained in one session and seed 2 in another
+    # whose teams could not meet the first block's: A_0, A_1 vs B_0, B_1 and A_2 vs B_2.
+    played = {(0, 0), (0, 1), (1, 0), (1, 1), (2, 2)}
+    wins = {(0, 0): 80, (0, 1): 70, (1, 0): 60, (1, 1): 50, (2, 2): 30}
+    series = [
+        Series(A[i], B[j], "v", "v", 100, 0, wins[i, j], 0, 100 - wins[i, j], "c")
+        for i, j in sorted(played)
+    ]
+    estimate = cross_score(series, A, B, allow_missing=True)
+    assert estimate.value == pytest.approx(sum(wins.values()) / 100 / len(wins))
+    assert estimate.low < estimate.value < estimate.high
+    # The pairs that were not played change nothing, whatever they would have been.
+    assert cross_score(series, A, B, resamples=0, allow_missing=True).value == estimate.value
+    assert missing_pairings(series, A, B) == [
+        (a, b) for i, a in enumerate(A) for j, b in enumerate(B) if (i, j) not in played
+    ]
+    rows = paired_scores(series[:3] + series[4:], A, B, allow_missing=True)  # no seed_1 pair
+    assert [r.seed for r in rows] == ["seed_0", "seed_2"]
+    with pytest.raises(ValueError, match="no pair has played"):
+        cross_score(series, A[:1], B[2:], allow_missing=True)
 
 
 def test_paired_scores_pair_seeds_by_suffix_with_wilson_intervals() -> None:

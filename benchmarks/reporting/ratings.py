@@ -3,7 +3,8 @@
 - :func:`ratings`: a Bradley-Terry fit on the Elo scale with a bootstrap interval;
 - :func:`cross_score`: one set of teams against another (e.g. every RLHC seed against
   every PPO seed), with an interval that includes the spread between seeds;
-- :func:`paired_scores`: seed ``k`` against seed ``k``, with Wilson intervals.
+- :func:`paired_scores`: seed ``k`` against seed ``k``, with Wilson intervals;
+- :func:`missing_pairings`: the pairs of two sets of teams that never met.
 
 The series come from :mod:`reporting.tournament` (``round_robin.json``).
 
@@ -208,13 +209,22 @@ def ratings(
 
 # --- one set of teams against another ------------------------------------------------
 def pair_records(
-    series: Sequence[Series], a_names: Sequence[str], b_names: Sequence[str]
-) -> list[list[Record]]:
+    series: Sequence[Series],
+    a_names: Sequence[str],
+    b_names: Sequence[str],
+    allow_missing: bool = False,
+) -> list[list[Record | None]]:
     """``[i][j]``: the record of ``a_names[i]`` against ``b_names[j]`` (series pooled).
 
+    Args:
+        series: the played series.
+        a_names: one side's teams; ``b_names`` the other's.
+        allow_missing: a pairing without a series is ``None`` instead of an error (a
+            team whose weights are lost cannot meet teams trained after it).
+
     Raises:
-        ValueError: a name repeats or is on both sides, a side is empty, or a pairing
-            has no series (every missing pairing is named).
+        ValueError: a name repeats or is on both sides, a side is empty, or (unless
+            ``allow_missing``) a pairing has no series (every missing pairing is named).
     """
     if not a_names or not b_names or len({*a_names, *b_names}) != len(a_names) + len(b_names):
         raise ValueError(f"teams {list(a_names)} vs {list(b_names)}: need two non-empty, "
@@ -227,9 +237,22 @@ def pair_records(
                     records[i][j] += s.record_of(a)
     missing = [f"{a} vs {b}" for i, a in enumerate(a_names) for j, b in enumerate(b_names)
                if not records[i][j].matches]  # fmt: skip
-    if missing:
+    if missing and not allow_missing:
         raise ValueError(f"no series for pairing(s) {missing}; play them with play_round_robin")
-    return records
+    return [[r if r.matches else None for r in row] for row in records]
+
+
+def missing_pairings(
+    series: Sequence[Series], a_names: Sequence[str], b_names: Sequence[str]
+) -> list[tuple[str, str]]:
+    """The pairs ``(A_i, B_j)`` that have no series, in ``a_names`` x ``b_names`` order."""
+    records = pair_records(series, a_names, b_names, allow_missing=True)
+    return [
+        (a, b)
+        for a, row in zip(a_names, records, strict=True)
+        for b, record in zip(b_names, row, strict=True)
+        if record is None
+    ]
 
 
 def cross_score(
@@ -239,6 +262,7 @@ def cross_score(
     resamples: int = 2000,
     seed: int = 0,
     confidence: float = 0.95,
+    allow_missing: bool = False,
 ) -> Estimate:
     """Mean score of the teams ``a_names`` against the teams ``b_names``, with its interval.
 
@@ -248,6 +272,12 @@ def cross_score(
     (its wins, draws and losses redrawn from a multinomial with its observed rates), so
     it includes the spread between seeds and not only between matches.
 
+    With ``allow_missing``, pairs without a series are left out: the estimate is the
+    mean over the pairs played, each resample's the mean over the played pairs it drew
+    (a resample that drew none is discarded). That is unbiased when whether a pair was
+    played does not depend on how the teams play (e.g. teams trained in different
+    sessions, whose earlier weights were lost).
+
     Args:
         series: the played series (either team may have been home).
         a_names: the teams of one side, e.g. every ``hierarchical/seed_k``.
@@ -255,34 +285,49 @@ def cross_score(
         resamples: bootstrap resamples (``0``: the interval is the estimate).
         seed: the bootstrap generator's seed.
         confidence: coverage of the interval.
+        allow_missing: see above; otherwise a missing pair is an error.
 
     Raises:
-        ValueError: as :func:`pair_records`.
+        ValueError: as :func:`pair_records`; or no pair at all was played.
 
     Examples:
         >>> series = [Series("a", "b", "1", "1", 4, 0, 3, 0, 1, "x")]
         >>> cross_score(series, ["a"], ["b"]).value
         0.75
+        >>> cross_score(series, ["a", "c"], ["b"], allow_missing=True).value
+        0.75
     """
-    records = pair_records(series, a_names, b_names)
-    counts = np.array([[[r.wins, r.draws, r.losses] for r in row] for row in records])
+    records = pair_records(series, a_names, b_names, allow_missing)
+    empty = Record(0, 0, 0)
+    counts = np.array(
+        [[[r.wins, r.draws, r.losses] for r in (x or empty for x in row)] for row in records]
+    )
     played = counts.sum(axis=-1)
-    scores = (counts[..., 0] + 0.5 * counts[..., 1]) / played
-    value = float(scores.mean())
+    mask = played > 0
+    if not mask.any():
+        raise ValueError(f"teams {list(a_names)} vs {list(b_names)}: no pair has played")
+    safe = np.maximum(played, 1)
+    scores = (counts[..., 0] + 0.5 * counts[..., 1]) / safe
+    value = float(scores[mask].mean())
     if not resamples:
         return Estimate(value, value, value)
     rng = np.random.default_rng(seed)
     n_a, n_b = scores.shape
-    redrawn = np.empty((resamples, n_a, n_b))
+    redrawn = np.zeros((resamples, n_a, n_b))
     for i in range(n_a):
         for j in range(n_b):
+            if not mask[i, j]:
+                continue
             draws = rng.multinomial(played[i, j], counts[i, j] / played[i, j], size=resamples)
             redrawn[:, i, j] = (draws[:, 0] + 0.5 * draws[:, 1]) / played[i, j]
     rows = rng.integers(n_a, size=(resamples, n_a))
     columns = rng.integers(n_b, size=(resamples, n_b))
-    picked = redrawn[np.arange(resamples)[:, None, None], rows[:, :, None], columns[:, None, :]]
+    pick = (np.arange(resamples)[:, None, None], rows[:, :, None], columns[:, None, :])
+    picked, picked_mask = redrawn[pick], mask[rows[:, :, None], columns[:, None, :]]
+    drawn = picked_mask.sum(axis=(1, 2))
+    means = (picked * picked_mask).sum(axis=(1, 2))[drawn > 0] / drawn[drawn > 0]
     tail = 100.0 * (1.0 - confidence) / 2.0
-    low, high = np.percentile(picked.mean(axis=(1, 2)), [tail, 100.0 - tail])
+    low, high = np.percentile(means, [tail, 100.0 - tail])
     return Estimate(value, float(low), float(high))
 
 
@@ -327,13 +372,21 @@ def seed_of(name: str) -> str:
 
 
 def paired_scores(
-    series: Sequence[Series], a_names: Sequence[str], b_names: Sequence[str]
+    series: Sequence[Series],
+    a_names: Sequence[str],
+    b_names: Sequence[str],
+    allow_missing: bool = False,
 ) -> list[PairedScore]:
     """A's seed ``k`` against B's seed ``k``, for the seeds both have (A's order).
 
+    Args:
+        series: the played series.
+        a_names: one side's teams; ``b_names`` the other's.
+        allow_missing: a seed pair without a series is left out instead of an error.
+
     Raises:
-        ValueError: the sides share no seed, or a pairing has no series (as
-            :func:`pair_records`).
+        ValueError: the sides share no seed, or (unless ``allow_missing``) a pairing
+            has no series (as :func:`pair_records`).
     """
     b_by_seed = {seed_of(b): b for b in b_names}
     pairs = [(a, b_by_seed[seed_of(a)]) for a in a_names if seed_of(a) in b_by_seed]
@@ -341,7 +394,9 @@ def paired_scores(
         raise ValueError(f"teams {list(a_names)} and {list(b_names)} share no seed suffix")
     rows = []
     for a, b in pairs:
-        record = pair_records(series, [a], [b])[0][0]
+        record = pair_records(series, [a], [b], allow_missing)[0][0]
+        if record is None:
+            continue
         low, high = wilson_interval(record.wins + 0.5 * record.draws, record.matches)
         rows.append(PairedScore(seed_of(a), a, b, record, low, high))
     return rows

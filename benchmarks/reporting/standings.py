@@ -3,7 +3,8 @@
 Per study, every final team (one per complete run) plays every other and the built-in
 ``scripted`` and ``random`` teams (:mod:`reporting.tournament`); the series are kept in
 the study's ``round_robin.json`` (committed), so the report rebuilds without
-checkpoints. From that file:
+checkpoints; each finished run keeps its ``final_team.pt`` (:mod:`rlhc.final_team`,
+committed), so a later run can still meet it. From that file:
 
 * an Elo-scale rating of every team (Bradley-Terry fit, bootstrap interval);
 * each configuration's score against the built-in teams, one value per seed, averaged
@@ -23,7 +24,7 @@ from pathlib import Path
 
 from .formatting import fmt_interval, share_interval, table
 from .plan import Study
-from .ratings import cross_score, paired_scores, ratings
+from .ratings import cross_score, missing_pairings, paired_scores, ratings
 from .runs import StudyRun, complete_runs
 from .study import comparisons_of
 from .tournament import Entrant, Record, Series, load_series, play_round_robin
@@ -44,30 +45,33 @@ def team_name(run: StudyRun) -> str:
     return f"{run.config}/seed_{run.seed}"
 
 
-def entrants(study: Study, runs: Sequence[StudyRun]) -> list[Entrant]:
-    """The study's complete runs' final teams, then the built-in teams."""
+def playable(study: Study, runs: Sequence[StudyRun]) -> tuple[list[StudyRun], list[StudyRun]]:
+    """The study's complete runs that can play (a final team or a checkpoint on disk),
+    and those that cannot (trained before final teams were kept, checkpoints gone):
+    their stored series still count, but they meet no team trained after them."""
+    from rlhc.final_team import has_team
+
     mine = [r for r in runs if r.study == study.name and r.complete]
-    return [Entrant(team_name(r), str(r.path)) for r in mine] + [
+    return [r for r in mine if has_team(r.path)], [r for r in mine if not has_team(r.path)]
+
+
+def entrants(study: Study, runs: Sequence[StudyRun]) -> list[Entrant]:
+    """The study's playable final teams (:func:`playable`), then the built-in teams."""
+    return [Entrant(team_name(r), str(r.path)) for r in playable(study, runs)[0]] + [
         Entrant(name, name) for name in BUILT_IN
     ]
 
 
 def play(study: Study, runs: Sequence[StudyRun], matches: int, seed: int) -> None:
-    """Play the study's missing pairings into its store (needs the runs' checkpoints).
+    """Play the study's missing pairings among its playable teams into its store.
 
-    Raises:
-        FileNotFoundError: a complete run keeps no checkpoint (it is named).
+    A complete run without weights on disk (:func:`playable`) is named and skipped:
+    its stored series stay in the store.
     """
-    from rlhc.checkpoint import CHECKPOINT_DIR, LATEST
-
-    mine = [r for r in runs if r.study == study.name and r.complete]
-    for run in mine:
-        if not (run.path / CHECKPOINT_DIR / LATEST).exists():
-            raise FileNotFoundError(
-                f"{run.path} keeps no {CHECKPOINT_DIR}/{LATEST}: matches need the runs' "
-                "checkpoints (not committed); train the run, or pass --matches 0 to "
-                "report the committed series only"
-            )
+    lost = playable(study, runs)[1]
+    if lost:
+        print(f"{study.name}: no final team or checkpoint, so no new pairing, for "
+              f"{', '.join(team_name(r) for r in lost)}", flush=True)  # fmt: skip
     play_round_robin(study.env, entrants(study, runs), matches, seed, store_of(study))
 
 
@@ -143,6 +147,7 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
     ]
     verdicts: list[str] = []
     head_rows, pair_rows = [], []
+    missing: list[str] = []
     for first, second in comparisons_of(study):
         a, b = local(first, study.name), local(second, study.name)
         if a is None or b is None:
@@ -152,14 +157,20 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
         if not a_names or not b_names:
             continue
         label = f"`{a}` vs `{b}`"
-        estimate = cross_score(series, a_names, b_names)
+        unplayed = missing_pairings(series, a_names, b_names)
+        missing += [f"`{x}` vs `{y}`" for x, y in unplayed]
+        estimate = cross_score(series, a_names, b_names, allow_missing=True)
         cell = f"{estimate.value:.3f} [{estimate.low:.3f}, {estimate.high:.3f}]"
         if min(len(a_names), len(b_names)) < 2:  # no seed spread to resample on that side
             cell += " (one seed on a side: no seed spread in the interval, no verdict)"
         else:
             verdicts.append(head_to_head_verdict(f"{study.name}: {label}", estimate))
-        head_rows.append([label, f"{len(a_names)} x {len(b_names)}", cell])
-        for row in paired_scores(series, a_names, b_names):
+        pairs = len(a_names) * len(b_names)
+        teams_cell = f"{len(a_names)} x {len(b_names)}"
+        if unplayed:
+            teams_cell += f" ({pairs - len(unplayed)} of {pairs} pairs played)"
+        head_rows.append([label, teams_cell, cell])
+        for row in paired_scores(series, a_names, b_names, allow_missing=True):
             pair_rows.append([label, *row.cells()])
     lines += [
         "Head-to-head, first configuration's score against the second over every pair of "
@@ -173,6 +184,18 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
         "",
         *table(["first vs second", "seed", "W/D/L of first", "score [95% Wilson]"], pair_rows),
     ]
+    if missing:
+        lost = [f"`{team_name(r)}`" for r in playable(study, runs)[1]]
+        lines += [
+            "",
+            f"Not played ({len(missing)} pairs; the scores above average the pairs played, "
+            f"and their bootstrap resamples only those): {', '.join(missing)}.",
+        ]
+        if lost:
+            lines[-1] += (
+                f" Teams whose weights are lost (trained before runs kept their "
+                f"`final_team.pt`), which meet no team trained after them: {', '.join(lost)}."
+            )
     return lines, verdicts
 
 

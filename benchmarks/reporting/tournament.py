@@ -1,10 +1,11 @@
 """A study's final teams in a round robin: entrants, the stored series, playing them.
 
-**Entrants and versions.** An :class:`Entrant` is a run directory (its newest checkpoint
-that loads, :func:`rlhc.checkpoint.load_checkpoint`) or a built-in team (``scripted``,
-``random``). Its *version* names what plays: for a run, the checkpoint's frames, file
-name and the first 12 hex digits of the file's SHA-256 (a run retrained into the same
-directory gets a new version even with the same file names); for a built-in, its name.
+**Entrants and versions.** An :class:`Entrant` is a run directory (its committed
+``final_team.pt``, else its newest checkpoint that loads: :func:`rlhc.final_team.load_team`)
+or a built-in team (``scripted``, ``random``). Its *version* names what plays: for a run,
+the file's frames, name and the first 12 hex digits of its SHA-256 (a run retrained into
+the same directory gets a new version even with the same file names); for a built-in,
+its name.
 
 **The store** (``round_robin.json``, one per study) holds one series per unordered pair
 of entrant names: who was home, both versions, the match count, the seed, the home
@@ -37,8 +38,6 @@ from rlhc.evaluation.elo import round_robin
 STORE_FORMAT = 2
 #: Worlds simulated at once in a series (as :func:`.head_to_head.play_series`).
 MAX_WORLDS = 32
-#: Checkpoint entries a policy is rebuilt from; the rest (optimiser, losses) is dropped.
-POLICY_KEYS = ("env", "config", "frames", "actors", "env_transform", "path")
 
 
 @dataclass(frozen=True)
@@ -107,7 +106,8 @@ class LoadedEntrant:
         name: the entrant's name; ``spec`` likewise.
         version: see the module docstring.
         options: the observation options of its game (empty for a built-in).
-        state: the checkpoint's :data:`POLICY_KEYS`; ``None`` for a built-in.
+        state: the file's :data:`rlhc.final_team.TEAM_KEYS` and ``path``; ``None`` for
+            a built-in.
     """
 
     name: str
@@ -160,19 +160,20 @@ class Series:
 
 # --- entrants and the store ----------------------------------------------------------
 def load_entrant(entrant: Entrant, env_name: str) -> LoadedEntrant:
-    """Read ``entrant``'s checkpoint once: its version, options and policy weights.
+    """Read ``entrant``'s team file once: its version, options and policy weights.
 
     Raises:
-        FileNotFoundError: the spec is neither a built-in team nor a checkpoint.
-        ValueError: the checkpoint was trained on another game (both named).
+        FileNotFoundError: the spec is neither a built-in team nor a final team or
+            checkpoint.
+        ValueError: the file was trained on another game (both named).
     """
-    from rlhc.checkpoint import load_checkpoint
     from rlhc.evaluation.opponents import is_built_in
     from rlhc.evaluation.policies import observation_options
+    from rlhc.final_team import TEAM_KEYS, load_team
 
     if is_built_in(entrant.spec):
         return LoadedEntrant(entrant.name, entrant.spec, entrant.spec, {}, None)
-    state = load_checkpoint(entrant.spec)
+    state = load_team(entrant.spec)
     if state["env"] != env_name:
         raise ValueError(
             f"entrant {entrant.name!r} ({state['path']}) was trained on {state['env']!r}; "
@@ -181,7 +182,7 @@ def load_entrant(entrant: Entrant, env_name: str) -> LoadedEntrant:
     path = Path(state["path"])
     digest = hashlib.sha256(path.read_bytes()).hexdigest()[:12]
     version = f"{state['frames']} frames, {path.name}, sha256 {digest}"
-    kept = {key: state[key] for key in POLICY_KEYS if key in state}
+    kept = {key: state[key] for key in (*TEAM_KEYS, "path") if key in state}
     return LoadedEntrant(entrant.name, entrant.spec, version, observation_options(state), kept)
 
 

@@ -7,7 +7,7 @@ TensorDict to an action for every agent of every group; a *player spec* names on
 |---|---|
 | ``random`` | uniform over each agent's action space (:class:`~rlhc.evaluation.teams.RandomPolicy`) |
 | ``scripted`` | the game's scripted team of the registry (:class:`~rlhc.evaluation.teams.ScriptedPolicy`) |
-| a path | a checkpoint file or a run directory (its ``checkpoints/latest.pt``) |
+| a path | a checkpoint or final-team file, or a run directory (its ``final_team.pt``, else its newest checkpoint: :func:`rlhc.final_team.load_team`) |
 
 The built-in teams live in :mod:`rlhc.evaluation.teams` and are re-exported here.
 """
@@ -17,24 +17,25 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from rlhc.checkpoint import load_checkpoint
 from rlhc.envs.keys import RANDOM, SCRIPTED
 from rlhc.envs.torchrl_adapter import BatchedGameEnv
 from rlhc.evaluation.policies import observation_options, restore_policy
 from rlhc.evaluation.teams import RandomPolicy, ScriptedPolicy, TeamPolicy
+from rlhc.final_team import load_team
 
 #: The player specs of the built-in teams.
 BUILT_IN = (RANDOM, SCRIPTED)
 
 
 def load_policy_checkpoint(spec: str, env_name: str) -> dict[str, Any]:
-    """Load the checkpoint ``spec`` and check it was trained on ``env_name``.
+    """Load what plays for ``spec`` (:func:`~rlhc.final_team.load_team`) and check it was
+    trained on ``env_name``.
 
     Raises:
         FileNotFoundError: the path does not exist or holds no checkpoint (named).
         ValueError: the checkpoint is from another game (names the path and both games).
     """
-    state = load_checkpoint(spec)
+    state = load_team(spec)
     if state["env"] != env_name:
         raise ValueError(
             f"checkpoint {spec!r} ({state['path']}) was trained on {state['env']!r}, "

@@ -1,0 +1,108 @@
+"""A finished run's final team: the policy part of its last checkpoint, small enough to keep.
+
+A checkpoint (:mod:`rlhc.checkpoint`) holds everything a resume needs — both critics,
+Adam's moments, the random states — and is not meant to be committed. A match needs
+far less: the actors, the observation normaliser and the config they were built from.
+When a run reaches its budget the trainer also writes ``<run dir>/final_team.pt`` with
+exactly that (:data:`TEAM_KEYS`), in the checkpoint file format, so
+
+- a study's teams survive without their checkpoints (a fresh clone can still play them
+  in a round robin or with ``python -m rlhc.evaluate home=<run dir>``);
+- the file names what plays: a round robin versions a team by this file's hash, which
+  is the same on every machine that holds the run.
+
+A resume never reads it: :func:`rlhc.checkpoint.checkpoint_candidates` looks only for
+``checkpoints/step_*.pt`` and ``latest.pt``.
+
+Examples:
+    >>> from rlhc.final_team import load_team  # doctest: +SKIP
+    >>> state = load_team("benchmarks/results/learning/tennis/paper/ppo/seed_3")  # doctest: +SKIP
+    >>> state["frames"], Path(state["path"]).name  # doctest: +SKIP
+    (3600000, 'final_team.pt')
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from rlhc.checkpoint import checkpoint_candidates, load_checkpoint, write_atomically
+
+#: The file, directly in the run directory.
+TEAM_FILE = "final_team.pt"
+#: The checkpoint entries a policy is rebuilt from (:func:`rlhc.evaluation.policies.restore_policy`).
+TEAM_KEYS = ("env", "config", "frames", "actors", "env_transform")
+
+
+def team_state(state: Mapping[str, Any]) -> dict[str, Any]:
+    """The :data:`TEAM_KEYS` of a checkpoint's ``state``.
+
+    Raises:
+        KeyError: ``state`` lacks one of them (all missing ones are named).
+    """
+    missing = [key for key in TEAM_KEYS if key not in state]
+    if missing:
+        raise KeyError(
+            f"a final team needs the checkpoint entries {missing}; it has {sorted(state)}"
+        )
+    return {key: state[key] for key in TEAM_KEYS}
+
+
+def save_team(run_dir: str | os.PathLike[str], state: Mapping[str, Any]) -> Path:
+    """Write ``<run_dir>/final_team.pt`` from a checkpoint's ``state`` (atomically); its path."""
+    path = Path(run_dir) / TEAM_FILE
+    write_atomically(path, team_state(state))
+    return path
+
+
+def export_team(run_dir: str | os.PathLike[str]) -> Path:
+    """Write the final team of ``run_dir`` from its newest checkpoint that loads; its path.
+
+    For runs trained before the trainer wrote the file itself, or to refresh it.
+
+    Raises:
+        FileNotFoundError: the directory holds no loadable checkpoint (as
+            :func:`rlhc.checkpoint.load_checkpoint`).
+    """
+    return save_team(run_dir, load_checkpoint(run_dir))
+
+
+def team_file(path: str | os.PathLike[str]) -> Path | None:
+    """The final-team file ``path`` names: itself (a file) or the run directory's one."""
+    candidate = Path(path).expanduser()
+    if candidate.is_file():
+        return candidate
+    file = candidate / TEAM_FILE
+    return file if file.is_file() else None
+
+
+def load_team(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """What plays for ``path``: a run directory's final team, else its newest checkpoint.
+
+    Args:
+        path: a run directory (its ``final_team.pt`` if it has one, else its newest
+            loadable checkpoint: an unfinished run plays as far as it got), or a
+            final-team or checkpoint file.
+
+    Returns:
+        The stored state, with ``"path"``: the file that was loaded.
+
+    Raises:
+        FileNotFoundError: ``path`` does not exist, or is a directory with neither file
+            (both looked for are named).
+        ValueError: the file is not a loadable rlhc checkpoint (named, with the reason).
+    """
+    file = team_file(path)
+    if file is not None:
+        return load_checkpoint(file)
+    try:
+        return load_checkpoint(path)
+    except FileNotFoundError as error:
+        raise FileNotFoundError(f"no {TEAM_FILE} in {str(path)!r}, and {error}") from None
+
+
+def has_team(path: str | os.PathLike[str]) -> bool:
+    """Whether :func:`load_team` has something to load for ``path`` (nothing is loaded)."""
+    return team_file(path) is not None or bool(checkpoint_candidates(path))
