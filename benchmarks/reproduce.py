@@ -13,11 +13,20 @@ robin can pit it against runs trained later. A run whose summary says complete i
 The same studies also run as Hydra multiruns (``python -m rlhc.run -m study=<name>``);
 ``--summaries-only`` then writes their summaries.
 
+``--hours H`` starts a run only if it is expected to finish within ``H`` hours of the
+command's start: its study's measured wall time per frame (of its game, for a study
+without complete runs) times the frames it has left by its summary (all of them for a
+run without one). A machine that is taken away at a
+known time (a session, a cluster allocation) then ends with every run it started
+complete, none half-trained. A run without any measured rate is not started under
+``--hours``.
+
 Usage (from the repository root)::
 
     python -m benchmarks.reproduce --jobs 2                          # every study
     python -m benchmarks.reproduce --study soccer_paper --seeds 3    # a part of it
     python -m benchmarks.reproduce --summaries-only                  # after a multirun
+    python -m benchmarks.reproduce --jobs 2 --hours 2.5              # only what fits
     python -m benchmarks.report                                      # docs/RESULTS.md
 """
 
@@ -28,10 +37,12 @@ import shlex
 import subprocess
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 
-from benchmarks.reporting.plan import ROOT, PlannedRun, plan, study_names
+from benchmarks.reporting.plan import ROOT, PlannedRun, plan, studies, study_names
+from benchmarks.reporting.runs import discover, study_rate
 from benchmarks.reporting.summary import (
     TRAIN_LOG,
     RunSummary,
@@ -65,8 +76,54 @@ def command(run: PlannedRun) -> list[str]:
     return [sys.executable, "-m", "rlhc.run", *run.overrides]
 
 
-def execute(run: PlannedRun) -> tuple[PlannedRun, int, float]:
-    """Train one run, then write its summary; returns its exit code and time."""
+def expected_seconds(runs: Sequence[PlannedRun]) -> dict[PlannedRun, float | None]:
+    """Per run: its study's measured seconds per frame times the frames it has left
+    (``None``: no complete run of its game to measure a rate from)."""
+    known = studies()
+    found = discover(known)
+    trained = {(r.study, r.config, r.seed): r.frames or 0 for r in found}
+    expected: dict[PlannedRun, float | None] = {}
+    for run in runs:
+        rate = study_rate(known, known[run.study], found)
+        left = max(run.max_steps - trained.get((run.study, run.config, run.seed), 0), 0)
+        expected[run] = None if rate is None else rate * left
+    return expected
+
+
+@dataclass(frozen=True)
+class Deadline:
+    """Start a run only if it is expected to end within ``seconds`` of ``start``.
+
+    Attributes:
+        seconds: the time allowed from ``start`` (``time.monotonic()``).
+        start: when the command started.
+        expected: :func:`expected_seconds` of the runs.
+    """
+
+    seconds: float
+    start: float
+    expected: Mapping[PlannedRun, float | None]
+
+    def refusal(self, run: PlannedRun) -> str | None:
+        """Why ``run`` may not start now; ``None`` if it may."""
+        left = self.seconds - (time.monotonic() - self.start)
+        needs = self.expected.get(run)
+        if needs is None:
+            return "no measured rate of its game to estimate its time from"
+        if needs > left:
+            return (f"needs ~{needs / 60:.0f} min at its study's measured rate, "
+                    f"{max(left, 0) / 60:.0f} min left of --hours")  # fmt: skip
+        return None
+
+
+def execute(
+    run: PlannedRun, deadline: Deadline | None = None
+) -> tuple[PlannedRun, int | None, float]:
+    """Train one run, then write its summary; its exit code (``None``: not started,
+    ``deadline`` refused it, as printed) and time."""
+    if deadline is not None and (why := deadline.refusal(run)) is not None:
+        print(f"{run.name}/seed_{run.seed}: not started: {why}", flush=True)
+        return run, None, 0.0
     run.run_dir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     with (run.run_dir / TRAIN_LOG).open("a") as log:
@@ -101,11 +158,19 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         action="store_true",
         help="train nothing: (re)write summary.json of every existing run from its files",
     )
+    parser.add_argument(
+        "--hours",
+        type=float,
+        default=None,
+        help="start only runs expected to finish within this many hours (measured rates)",
+    )
     args = parser.parse_args(argv)
     if args.seeds is not None and args.seeds < 1:
         parser.error(f"--seeds must be >= 1, got {args.seeds}")
     if args.jobs < 1:
         parser.error(f"--jobs must be >= 1, got {args.jobs}")
+    if args.hours is not None and not args.hours > 0:
+        parser.error(f"--hours must be > 0, got {args.hours}")
     return args
 
 
@@ -118,9 +183,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     todo = [run for run in runs if not is_done(run)]
     print(f"{len(todo)} of {len(runs)} runs to train", flush=True)
+    deadline = None
+    if args.hours is not None:
+        deadline = Deadline(args.hours * 3600, time.monotonic(), expected_seconds(todo))
     failures = 0
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:
-        for run, code, seconds in pool.map(execute, todo):
+        for run, code, seconds in pool.map(lambda r: execute(r, deadline), todo):
+            if code is None:
+                continue  # not started: said when it was refused
             status = "ok" if code == 0 else f"FAILED ({code}, see {run.run_dir / TRAIN_LOG})"
             failures += code != 0
             print(f"{run.name}/seed_{run.seed}: {status} in {seconds:.0f} s", flush=True)

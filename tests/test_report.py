@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import time
 from pathlib import Path
 
 import numpy as np
@@ -416,6 +417,35 @@ def test_reproduce_trains_each_run_through_its_study_config(tmp_path: Path) -> N
     assert not (toy[0].run_dir / "final_team.pt").exists()  # no checkpoint to take it from
 
 
+def test_reproduce_starts_only_runs_that_fit_in_hours(
+    toy: dict[str, Study], capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from benchmarks import reproduce
+
+    # Measured: 0.5 s per frame (test_plan_section_...). hierarchical/seed_2 has 70 of
+    # 100 frames left (35 s), ppo/seed_2 no summary: all 100 (50 s).
+    runs = discover(toy)
+    planned = [r.planned for r in runs if not r.complete]
+    monkeypatch.setattr(reproduce, "studies", lambda: toy)
+    expected = reproduce.expected_seconds(planned)
+    assert [expected[p] for p in planned] == [35.0, 50.0]
+    deadline = reproduce.Deadline(40.0, time.monotonic(), expected)
+    assert deadline.refusal(planned[0]) is None
+    assert "needs ~1 min at its study's measured rate, 1 min left" in str(
+        deadline.refusal(planned[1])
+    )
+    unknown = PlannedRun("toy", "ppo", 9, 100, toy["toy"].root)
+    assert "no measured rate" in str(deadline.refusal(unknown))
+    # A refused run is not started: no process, no directory, no summary.
+    monkeypatch.setattr(reproduce.subprocess, "call", lambda *a, **k: pytest.fail("started"))
+    assert reproduce.execute(planned[1], deadline) == (planned[1], None, 0.0)
+    assert "ppo/seed_2: not started" in capsys.readouterr().out
+    assert not (planned[1].run_dir / "summary.json").exists()
+    assert reproduce.parse_args(["--hours", "2.5"]).hours == 2.5
+    with pytest.raises(SystemExit):
+        reproduce.parse_args(["--hours", "0"])
+
+
 def test_reproduce_keeps_the_final_team_of_a_complete_run(tmp_path: Path) -> None:
     from benchmarks import reproduce
     from rlhc.checkpoint import save_checkpoint
@@ -434,7 +464,8 @@ def test_reproduce_keeps_the_final_team_of_a_complete_run(tmp_path: Path) -> Non
 
 
 def test_plan_section_costs_each_study_from_its_measured_rate(toy: dict[str, Study]) -> None:
-    from benchmarks.reporting.document import plan_section, seconds_per_frame
+    from benchmarks.reporting.document import plan_section
+    from benchmarks.reporting.runs import seconds_per_frame
 
     # 4 complete runs of 100 frames in 50 s each: 0.5 s per frame, 50 s per run.
     # Left: hierarchical seed 2 (70 frames) and ppo seed 2 (100) = 170 frames = 85 s.

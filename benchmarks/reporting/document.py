@@ -26,7 +26,7 @@ from .figures import draw_study_curves
 from .formatting import fmt_interval, fmt_reach, table
 from .markdown import drift_lines, finals_section, runs_section, settings_section
 from .plan import Study, studies
-from .runs import StudyRun, complete_runs, discover
+from .runs import StudyRun, complete_runs, discover, study_rate
 from .standings import play, study_matches
 from .statistics import (
     initial_value,
@@ -173,16 +173,6 @@ def what_was_run(runs: Sequence[StudyRun], plan: Mapping[str, Study]) -> list[st
     ]
 
 
-def seconds_per_frame(runs: Sequence[StudyRun]) -> float | None:
-    """Measured training wall time per frame of the complete ``runs`` (mean over runs)."""
-    rates = [
-        r.wall_time / r.frames
-        for r in runs
-        if r.complete and r.frames and math.isfinite(r.wall_time)
-    ]
-    return float(np.mean(rates)) if rates else None
-
-
 def plan_section(plan: Mapping[str, Study], runs: Sequence[StudyRun]) -> list[str]:
     """The plan with its compute: core-hours per study from measured training rates."""
     rows = []
@@ -190,9 +180,7 @@ def plan_section(plan: Mapping[str, Study], runs: Sequence[StudyRun]) -> list[st
     for study in plan.values():
         mine = [r for r in runs if r.study == study.name]
         done = sum(r.complete for r in mine)
-        rate = seconds_per_frame(mine)  # this study's rate, else its game's
-        if rate is None:
-            rate = seconds_per_frame([r for r in runs if plan[r.study].env == study.env])
+        rate = study_rate(plan, study, runs)
         per_run = rate * study.max_steps / 3600 if rate is not None else math.nan
         remaining = sum(
             max(study.max_steps - (r.frames or 0), 0) for r in mine if not r.complete

@@ -130,6 +130,25 @@ def discover(plan: Mapping[str, Study]) -> list[StudyRun]:
     return found
 
 
+def seconds_per_frame(runs: Sequence[StudyRun]) -> float | None:
+    """Measured training wall time per frame of the complete ``runs`` (mean over runs)."""
+    rates = [
+        r.wall_time / r.frames
+        for r in runs
+        if r.complete and r.frames and math.isfinite(r.wall_time)
+    ]
+    return sum(rates) / len(rates) if rates else None
+
+
+def study_rate(plan: Mapping[str, Study], study: Study, runs: Sequence[StudyRun]) -> float | None:
+    """Seconds per frame of ``study``'s complete runs, else of its game's in ``plan``
+    (``None``: no complete run of the game)."""
+    rate = seconds_per_frame([r for r in runs if r.study == study.name])
+    if rate is None:
+        rate = seconds_per_frame([r for r in runs if plan[r.study].env == study.env])
+    return rate
+
+
 def complete_runs(runs: Iterable[StudyRun], name: str) -> list[StudyRun]:
     """The complete runs of ``study/config``, by seed."""
     return sorted((r for r in runs if r.name == name and r.complete), key=lambda r: r.seed)
