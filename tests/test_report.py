@@ -14,7 +14,14 @@ import pytest
 from benchmarks import report as report_cli
 from benchmarks.reporting.blocks import HAND_WRITTEN, block, blocks_of, body_lines
 from benchmarks.reporting.document import build_report, command_line
-from benchmarks.reporting.formatting import fmt, fmt_interval, fmt_reach, share_interval, table
+from benchmarks.reporting.formatting import (
+    fmt,
+    fmt_interval,
+    fmt_reach,
+    positive_interval,
+    share_interval,
+    table,
+)
 from benchmarks.reporting.markdown import runs_section
 from benchmarks.reporting.plan import PlannedRun, Study, plan, read_study, studies
 from benchmarks.reporting.runs import complete_runs, discover
@@ -279,7 +286,9 @@ def test_formatting() -> None:
     assert fmt_interval(ci, 2, fixed=True) == "2.00 [-0.48, 4.48]"
     assert "no interval" in fmt_interval(t_interval([1.0]))
     assert fmt(math.nan) == "—" and fmt(None) == "—"
-    assert fmt_reach([10.0, None, 30.0]) == "20 [-107, 147] (2/3 seeds)"
+    assert fmt_reach([10.0, None, 30.0]) == "20 [0, 147] (2/3 seeds)"  # t: [-107, 147]
+    assert positive_interval([1.0, 2.0, 3.0]).low == 0.0
+    assert positive_interval([10.0, 11.0, 12.0]) == t_interval([10.0, 11.0, 12.0])
     assert fmt_reach([None, None]) == "— (0/2 seeds)"
     clipped = share_interval([0.0, 0.05, 0.3])
     assert (clipped.low, clipped.high) == (0.0, pytest.approx(t_interval([0.0, 0.05, 0.3]).high))

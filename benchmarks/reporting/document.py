@@ -17,13 +17,11 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from rlhc.evaluation.stats import t_interval
-
 from .aggregates import aggregates_section
 from .blocks import HAND_WRITTEN, block, blocks_of, body_lines
 from .environment import machine, versions
 from .figures import draw_study_curves
-from .formatting import fmt_interval, fmt_reach, table
+from .formatting import fmt_interval, fmt_reach, positive_interval, table
 from .markdown import drift_lines, finals_section, runs_section, settings_section
 from .plan import Study, studies
 from .runs import StudyRun, complete_runs, discover, study_rate
@@ -266,7 +264,8 @@ def study_section(
         f"The paper's four metrics and {PLAY_METRIC[study.env][1]}, mean over complete "
         f"seeds with a 95% t band, EMA {SMOOTHING} smoothing. Finals: per run, the mean of "
         "the last 10% (by steps) of the smoothed curve; tables give the mean over seeds "
-        "with its 95% t interval. Steps to threshold: mean [95% t] of the seeds that "
+        "with its 95% t interval (clipped at 0 for what cannot be negative: steps, "
+        "lengths, hits, goals, speeds). Steps to threshold: mean [95% t] of the seeds that "
         f"reached it. Here the final window holds {window_points(members)} logged points "
         "per run. In self-play both teams are the same policy, so a group's cumulative "
         "reward says how the game's reward splits between roles and sides, not how well the "
@@ -326,10 +325,10 @@ def play_and_speed(study: Study, runs: Sequence[StudyRun], fraction: float) -> l
         rows.append(
             [
                 f"`{name}`",
-                fmt_interval(t_interval([v for v in finals[name] if v is not None]), 3),
+                fmt_interval(positive_interval([v for v in finals[name] if v is not None]), 3),
                 fmt_reach(reach) if level is not None else "—",
-                fmt_interval(t_interval(speeds), 0, fixed=True),
-                fmt_interval(t_interval(env_rates), 0, fixed=True),
+                fmt_interval(positive_interval(speeds), 0, fixed=True),
+                fmt_interval(positive_interval(env_rates), 0, fixed=True),
             ]
         )
     where = (

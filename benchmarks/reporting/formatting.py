@@ -34,15 +34,23 @@ def share_interval(values: Sequence[float]) -> MeanInterval:
     return dataclasses.replace(ci, low=max(ci.low, 0.0), high=min(ci.high, 1.0))
 
 
+def positive_interval(values: Sequence[float]) -> MeanInterval:
+    """The t interval of a quantity that cannot be negative (steps, lengths, rates, counts),
+    its lower end clipped at 0 (with 2 or 3 seeds a t interval easily reaches below)."""
+    ci = t_interval(values)
+    return dataclasses.replace(ci, low=max(ci.low, 0.0))
+
+
 def fmt_reach(reach: Sequence[float | None]) -> str:
-    """Steps to a threshold of the seeds that reached it: mean [95% t], and how many did.
+    """Steps to a threshold of the seeds that reached it: mean [95% t, clipped at 0], and
+    how many did.
 
     Seeds that never reached it are counted, not averaged (their steps are unknown).
     """
     hits = [r for r in reach if r is not None]
     if not reach:
         return "—"
-    mean = fmt_interval(t_interval(hits), 0, fixed=True) if hits else "—"
+    mean = fmt_interval(positive_interval(hits), 0, fixed=True) if hits else "—"
     return f"{mean} ({len(hits)}/{len(reach)} seeds)"
 
 

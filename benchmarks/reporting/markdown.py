@@ -14,7 +14,7 @@ import numpy as np
 
 from rlhc.evaluation.stats import t_interval
 
-from .formatting import fmt, fmt_interval, fmt_reach, table
+from .formatting import fmt, fmt_interval, fmt_reach, positive_interval, table
 from .plan import Study
 from .runs import StudyRun, complete_runs, config_drift
 from .statistics import Comparison, config_finals, fill_reach, finite
@@ -67,7 +67,9 @@ def runs_section(runs: Sequence[StudyRun], plan: Mapping[str, Study]) -> list[st
                     f"{len(done)} of {len(study.seeds)}",
                     ", ".join(str(r.seed) for r in done) or "—",
                     "; ".join(partial) or "—",
-                    fmt_interval(t_interval([t for t in times if math.isfinite(t)]), 0, fixed=True),
+                    fmt_interval(
+                        positive_interval([t for t in times if math.isfinite(t)]), 0, fixed=True
+                    ),
                     ", ".join(f"`{v}`" for v in versions) or "—",
                 ]
             )
@@ -148,7 +150,7 @@ def finals_section(
                 str(len(c.seeds)),
                 fmt_interval(t_interval(c.reward)),
                 fmt_reach(c.reach),
-                fmt_interval(t_interval(finite(c.episode_length)), 3),
+                fmt_interval(positive_interval(finite(c.episode_length)), 3),
                 fmt_interval(t_interval(finite(c.entropy)), 3),
             ]
             for c in tables
