@@ -32,6 +32,8 @@ STUDIES = {
     "soccer_paper": ("soccer", None, ["ppo", "hierarchical", "twin"], "self_play", 0.0, 500_000, "soccer/paper"),
     "soccer_best": ("soccer", None, ["ppo", "hierarchical", "twin"], "mixed", 0.1, 1_000_000, "soccer/best"),
 }  # fmt: skip
+#: Seeds per configuration where a study has fewer than 5 (the compute plan).
+SEEDS = {"tennis_extensions": 3}
 #: A small study: 64-frame updates (tennis smoke), a summary and a checkpoint each.
 SMALL = ["study=tennis_paper", "experiment=smoke", "logger.summary_freq=64", "checkpoint_freq=64"]
 FINISHED = "the run is finished, nothing to do"
@@ -76,7 +78,7 @@ def test_a_study_composes_its_game_league_shaping_budget_and_sweep(study: str) -
             "dir": f"benchmarks/results/learning/{results}",
             "subdir": "${hydra:runtime.choices.critic}/seed_${seed}",
         },
-        "params": {"critic": ",".join(critics), "seed": "range(5)"},
+        "params": {"critic": ",".join(critics), "seed": f"range({SEEDS.get(study, 5)})"},
     }
     for critic in critics:
         run = load(f"study={study}", f"critic={critic}", "seed=3")
