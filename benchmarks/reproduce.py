@@ -137,12 +137,18 @@ def execute(
 
 def write_summaries(runs: Sequence[PlannedRun]) -> int:
     """``summary.json`` of every run that has a directory, from its files (and the final
-    team of a complete one, as :func:`record`); how many."""
+    team of a complete one, as :func:`record`); how many.
+
+    A complete run that no longer keeps a checkpoint (a fresh clone) keeps its summary:
+    its files now say less than when the summary was written (frames from the
+    checkpoint, not from ``metrics.csv``).
+    """
     written = 0
     for run in runs:
-        if run.run_dir.is_dir():
-            record(run)
-            written += 1
+        if not run.run_dir.is_dir() or (is_done(run) and not checkpoint_candidates(run.run_dir)):
+            continue
+        record(run)
+        written += 1
     return written
 
 
@@ -156,7 +162,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument(
         "--summaries-only",
         action="store_true",
-        help="train nothing: (re)write summary.json of every existing run from its files",
+        help="train nothing: (re)write summary.json of every existing run from its files "
+        "(a complete run without checkpoints keeps its own)",
     )
     parser.add_argument(
         "--hours",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import shutil
 import time
 from pathlib import Path
 
@@ -471,6 +472,13 @@ def test_reproduce_keeps_the_final_team_of_a_complete_run(tmp_path: Path) -> Non
     team = load_team(done.run_dir)
     assert Path(team["path"]).name == TEAM_FILE and "optimizer" not in team
     assert not (partial.run_dir / TEAM_FILE).exists()  # unfinished: no final team yet
+    # On a clone without checkpoints, a complete run's summary (frames read from its
+    # checkpoint) is kept, not replaced by one that can only read metrics.csv.
+    kept = (done.run_dir / "summary.json").read_text()
+    assert json.loads(kept)["frames_from"] == "checkpoints/latest.pt"
+    shutil.rmtree(done.run_dir / "checkpoints")
+    assert reproduce.write_summaries([done, partial]) == 1
+    assert (done.run_dir / "summary.json").read_text() == kept
 
 
 def test_plan_section_costs_each_study_from_its_measured_rate(toy: dict[str, Study]) -> None:
