@@ -1,7 +1,9 @@
 """Checkpoints: everything needed to continue a run exactly where it was saved.
 
 A run directory holds ``checkpoints/step_<frames>.pt`` files and a ``latest.pt``
-symlink to the newest. Both survive a kill at any instant:
+symlink to the newest (and, once the budget is reached, the much smaller
+``final_team.pt`` that matches play from: :mod:`rlhc.final_team`). Both survive a kill
+at any instant:
 
 - every file is written to a hidden temporary file in the same directory, flushed to
   disk (``fsync``) and renamed over its final name (``os.replace``, atomic on POSIX),
