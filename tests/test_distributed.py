@@ -79,10 +79,11 @@ def test_data_parallel_run_writes_one_run_directory(tmp_path: Path) -> None:
         "step_000000256.pt",
         "step_000000512.pt",
     ]
-    # Rank 1 wrote nothing of its own.
+    # Rank 1 wrote nothing of its own; rank 0 the final team at the end of the budget.
     assert {p.name for p in run_dir.iterdir()} == {
         ".hydra",
         "checkpoints",
+        "final_team.pt",
         "metrics.csv",
         "run.log",
     }
