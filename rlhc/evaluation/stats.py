@@ -17,7 +17,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from statistics import NormalDist
 
@@ -179,6 +179,34 @@ def _tasks(scores_by_task: Sequence[Sequence[float]], what: str) -> list[np.ndar
     return tasks
 
 
+def _bootstrap_interval(
+    samples: Sequence[np.ndarray],
+    statistic: Callable[..., np.ndarray],
+    confidence: float,
+    resamples: int,
+    seed: int,
+) -> tuple[float, float]:
+    """Percentile interval of ``statistic(*samples, axis=-1)``, each sample resampled on
+    its own (stratified). A sample of one value is the same in every resample: it is
+    held fixed (scipy's ``bootstrap`` needs two or more per sample it resamples)."""
+    varying = [i for i, sample in enumerate(samples) if sample.size > 1]
+
+    def with_fixed(*drawn: np.ndarray, axis: int = -1) -> np.ndarray:
+        batch = drawn[0].shape[:-1]
+        full = [np.broadcast_to(sample, (*batch, sample.size)) for sample in samples]
+        for index, values in zip(varying, drawn, strict=True):
+            full[index] = values
+        return statistic(*full, axis=axis)
+
+    result = scipy_stats.bootstrap(
+        [samples[i] for i in varying], with_fixed, n_resamples=resamples,
+        confidence_level=confidence, method="percentile", vectorized=True,
+        random_state=np.random.default_rng(seed),
+    )  # fmt: skip
+    interval = result.confidence_interval
+    return float(interval.low), float(interval.high)
+
+
 def iqm_interval(
     scores_by_task: Sequence[Sequence[float]],
     confidence: float = 0.95,
@@ -212,12 +240,7 @@ def iqm_interval(
     value = float(pooled_iqm(*tasks))
     if all(task.size < 2 for task in tasks):
         return Estimate(value, value, value)
-    result = scipy_stats.bootstrap(
-        tasks, pooled_iqm, n_resamples=resamples, confidence_level=confidence,
-        method="percentile", vectorized=True, random_state=np.random.default_rng(seed),
-    )  # fmt: skip
-    interval = result.confidence_interval
-    return Estimate(value, float(interval.low), float(interval.high))
+    return Estimate(value, *_bootstrap_interval(tasks, pooled_iqm, confidence, resamples, seed))
 
 
 def probability_of_improvement(
@@ -266,9 +289,5 @@ def probability_of_improvement(
     value = float(average(*xs, *ys))
     if all(sample.size < 2 for sample in (*xs, *ys)):
         return Estimate(value, value, value)
-    result = scipy_stats.bootstrap(
-        [*xs, *ys], average, n_resamples=resamples, confidence_level=confidence,
-        method="percentile", vectorized=True, random_state=np.random.default_rng(seed),
-    )  # fmt: skip
-    interval = result.confidence_interval
-    return Estimate(value, float(interval.low), float(interval.high))
+    interval = _bootstrap_interval([*xs, *ys], average, confidence, resamples, seed)
+    return Estimate(value, *interval)

@@ -56,3 +56,15 @@ def test_probability_of_improvement_refuses_mismatched_tasks() -> None:
         probability_of_improvement([[1.0], [2.0]], [[1.0]])
     with pytest.raises(ValueError, match="at least one score"):
         probability_of_improvement([[1.0], []], [[1.0], [2.0]])
+
+
+def test_a_task_with_one_run_is_held_fixed_in_the_bootstrap() -> None:
+    # A study with one seed beside one with five (a study just begun): the single run is
+    # in every resample; only the five are resampled.
+    five, one = [0.2, 0.4, 0.5, 0.6, 0.8], [0.9]
+    iqm = iqm_interval([five, one])
+    assert iqm.low < iqm.value < iqm.high
+    assert iqm.high - iqm.low < iqm_interval([five]).high - iqm_interval([five]).low + 0.2
+    improvement = probability_of_improvement([five, one], [[0.5, 0.5], [0.1]])
+    assert improvement.value == pytest.approx((0.5 + 1.0) / 2)
+    assert improvement.low <= improvement.value <= improvement.high
