@@ -51,8 +51,10 @@ def playable(study: Study, runs: Sequence[StudyRun]) -> tuple[list[StudyRun], li
     their stored series still count, but they meet no team trained after them."""
     from rlhc.final_team import has_team
 
-    mine = [r for r in runs if r.study == study.name and r.complete]
-    return [r for r in mine if has_team(r.path)], [r for r in mine if not has_team(r.path)]
+    found: tuple[list[StudyRun], list[StudyRun]] = ([], [])
+    for run in (r for r in runs if r.study == study.name and r.complete):
+        found[0 if has_team(run.path) else 1].append(run)
+    return found
 
 
 def entrants(study: Study, runs: Sequence[StudyRun]) -> list[Entrant]:
