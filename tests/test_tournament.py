@@ -19,8 +19,7 @@ from benchmarks.reporting import tournament
 from benchmarks.reporting.ratings import (
     Rating,
     cross_score,
-    missing_pairings,
-    paired_scores,
+    pair_records,
     ratings,
 )
 from benchmarks.reporting.tournament import (
@@ -32,7 +31,6 @@ from benchmarks.reporting.tournament import (
     play_round_robin,
 )
 from rlhc.checkpoint import save_checkpoint
-from rlhc.evaluation.stats import wilson_interval
 
 BUILT_INS = [Entrant("scripted", "scripted"), Entrant("random", "random")]
 
@@ -205,8 +203,8 @@ def test_a_missing_pairing_is_named() -> None:
     series = [s for s in grid([60, 60, 60]) if (s.home, s.away) != (A[1], B[2])]
     with pytest.raises(ValueError, match="hierarchical/seed_1 vs ppo/seed_2"):
         cross_score(series, A, B)
-    with pytest.raises(ValueError, match="hierarchical/seed_1 vs ppo/seed_1"):
-        paired_scores([s for s in series if (s.home, s.away) != (A[1], B[1])], A, B)
+    with pytest.raises(ValueError, match="hierarchical/seed_1 vs ppo/seed_2"):
+        pair_records(series, A, B)
     with pytest.raises(ValueError, match="disjoint"):
         cross_score(series, A, A)
 
@@ -225,30 +223,22 @@ def test_missing_pairs_are_left_out_when_allowed() -> None:
     assert estimate.low < estimate.value < estimate.high
     # The pairs that were not played change nothing, whatever they would have been.
     assert cross_score(series, A, B, resamples=0, allow_missing=True).value == estimate.value
-    assert missing_pairings(series, A, B) == [
-        (a, b) for i, a in enumerate(A) for j, b in enumerate(B) if (i, j) not in played
-    ]
-    rows = paired_scores(series[:3] + series[4:], A, B, allow_missing=True)  # no seed_1 pair
-    assert [r.seed for r in rows] == ["seed_0", "seed_2"]
+    records = pair_records(series, A, B, allow_missing=True)
+    assert {(i, j) for i in range(3) for j in range(3) if records[i][j] is None} == {
+        (i, j) for i in range(3) for j in range(3) if (i, j) not in played
+    }
+    assert records[0][1] == Record(70, 0, 30)
     with pytest.raises(ValueError, match="no pair has played"):
         cross_score(series, A[:1], B[2:], allow_missing=True)
 
 
-def test_paired_scores_pair_seeds_by_suffix_with_wilson_intervals() -> None:
+def test_pair_records_pool_both_sides_series_in_the_first_sides_view() -> None:
     series = [swapped(s) for s in grid([70, 55, 40], matches=20 * 5)]  # B recorded at home
-    rows = paired_scores(series, A, ["ppo/seed_1", "ppo/seed_0"])  # no ppo/seed_2
-    assert [(r.seed, r.a, r.b) for r in rows] == [
-        ("seed_0", A[0], "ppo/seed_0"),
-        ("seed_1", A[1], "ppo/seed_1"),
-    ]
-    assert rows[0].record == Record(70, 0, 30) and rows[0].score == 0.7
-    assert (rows[0].low, rows[0].high) == wilson_interval(70, 100)
-    assert rows[1].cells()[:2] == ["seed_1", "55/0/45"]
-    with pytest.raises(ValueError, match="share no seed suffix"):
-        paired_scores(series, A, ["ppo/other"])
+    records = pair_records(series, A, ["ppo/seed_1", "ppo/seed_0"])
+    assert records[0][1] == Record(70, 0, 30) and records[1][0] == Record(55, 0, 45)
+    assert records[0][1].score == 0.7
 
 
-# --- the store -------------------------------------------------------------------------
 def fake_run(root: Path, name: str, frames: int, env: str = "tennis", **options: object) -> Entrant:
     """A run directory whose checkpoint holds a config but no weights (nothing is played)."""
     config = {"env": {"name": env, "num_envs": 2, "extended_obs": False, **options}}

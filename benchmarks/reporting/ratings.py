@@ -3,8 +3,7 @@
 - :func:`ratings`: a Bradley-Terry fit on the Elo scale with a bootstrap interval;
 - :func:`cross_score`: one set of teams against another (e.g. every RLHC seed against
   every PPO seed), with an interval that includes the spread between seeds;
-- :func:`paired_scores`: seed ``k`` against seed ``k``, with Wilson intervals;
-- :func:`missing_pairings`: the pairs of two sets of teams that never met.
+- :func:`pair_records`: the record of every pair of two sets of teams (``None``: never met).
 
 The series come from :mod:`reporting.tournament` (``round_robin.json``).
 
@@ -24,7 +23,7 @@ import numpy as np
 from scipy import optimize, sparse, special
 from scipy.sparse import csgraph
 
-from rlhc.evaluation.stats import Estimate, wilson_interval
+from rlhc.evaluation.stats import Estimate
 
 from .tournament import Record, Series
 
@@ -242,19 +241,6 @@ def pair_records(
     return [[r if r.matches else None for r in row] for row in records]
 
 
-def missing_pairings(
-    series: Sequence[Series], a_names: Sequence[str], b_names: Sequence[str]
-) -> list[tuple[str, str]]:
-    """The pairs ``(A_i, B_j)`` that have no series, in ``a_names`` x ``b_names`` order."""
-    records = pair_records(series, a_names, b_names, allow_missing=True)
-    return [
-        (a, b)
-        for a, row in zip(a_names, records, strict=True)
-        for b, record in zip(b_names, row, strict=True)
-        if record is None
-    ]
-
-
 def cross_score(
     series: Sequence[Series],
     a_names: Sequence[str],
@@ -329,74 +315,3 @@ def cross_score(
     tail = 100.0 * (1.0 - confidence) / 2.0
     low, high = np.percentile(means, [tail, 100.0 - tail])
     return Estimate(value, float(low), float(high))
-
-
-@dataclass(frozen=True)
-class PairedScore:
-    """Seed ``k`` of A against seed ``k`` of B.
-
-    Attributes:
-        seed: the shared name suffix, e.g. ``"seed_0"``.
-        a: A's team; ``b`` likewise.
-        record: A's wins, draws and losses.
-        low: lower bound of the 95% Wilson interval of A's score; ``high`` likewise.
-    """
-
-    seed: str
-    a: str
-    b: str
-    record: Record
-    low: float
-    high: float
-
-    @property
-    def score(self) -> float:
-        """A's score per match (a draw 0.5)."""
-        return self.record.score
-
-    def cells(self) -> list[str]:
-        """``[seed, "W/D/L", "score [low, high]"]``: a row of the report's table."""
-        r = self.record
-        return [self.seed, f"{r.wins}/{r.draws}/{r.losses}",
-                f"{r.score:.3f} [{self.low:.3f}, {self.high:.3f}]"]  # fmt: skip
-
-
-def seed_of(name: str) -> str:
-    """The seed part of a team name: what follows its last ``/``.
-
-    Examples:
-        >>> seed_of("hierarchical/seed_3")
-        'seed_3'
-    """
-    return name.rsplit("/", 1)[-1]
-
-
-def paired_scores(
-    series: Sequence[Series],
-    a_names: Sequence[str],
-    b_names: Sequence[str],
-    allow_missing: bool = False,
-) -> list[PairedScore]:
-    """A's seed ``k`` against B's seed ``k``, for the seeds both have (A's order).
-
-    Args:
-        series: the played series.
-        a_names: one side's teams; ``b_names`` the other's.
-        allow_missing: a seed pair without a series is left out instead of an error.
-
-    Raises:
-        ValueError: the sides share no seed, or (unless ``allow_missing``) a pairing
-            has no series (as :func:`pair_records`).
-    """
-    b_by_seed = {seed_of(b): b for b in b_names}
-    pairs = [(a, b_by_seed[seed_of(a)]) for a in a_names if seed_of(a) in b_by_seed]
-    if not pairs:
-        raise ValueError(f"teams {list(a_names)} and {list(b_names)} share no seed suffix")
-    rows = []
-    for a, b in pairs:
-        record = pair_records(series, [a], [b], allow_missing)[0][0]
-        if record is None:
-            continue
-        low, high = wilson_interval(record.wins + 0.5 * record.draws, record.matches)
-        rows.append(PairedScore(seed_of(a), a, b, record, low, high))
-    return rows

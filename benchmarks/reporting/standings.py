@@ -12,7 +12,7 @@ committed), so a later run can still meet it. From that file:
   :mod:`reporting.aggregates`);
 * head-to-head between the compared configurations: the score of one over all seed
   pairs, with an interval that resamples seeds on both sides (so it includes the
-  spread between seeds), and the seed-k vs seed-k series.
+  spread between seeds), and the score of every seed pair.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from pathlib import Path
 
 from .formatting import fmt_interval, share_interval, table
 from .plan import Study
-from .ratings import cross_score, missing_pairings, paired_scores, ratings
+from .ratings import cross_score, pair_records, ratings
 from .runs import StudyRun, complete_runs
 from .study import comparisons_of
 from .tournament import Entrant, Record, Series, load_series, play_round_robin
@@ -33,6 +33,8 @@ from .tournament import Entrant, Record, Series, load_series, play_round_robin
 STORE = "round_robin.json"
 #: Built-in teams every final team meets.
 BUILT_IN = ("scripted", "random")
+#: What the head-to-head scores mean when some seed pairs never met.
+PLAYED_ONLY = " The scores above average the pairs played; their bootstrap resamples only those."
 
 
 def store_of(study: Study) -> Path:
@@ -148,8 +150,9 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
         "",
     ]
     verdicts: list[str] = []
-    head_rows, pair_rows = [], []
-    missing: list[str] = []
+    head_rows: list[list[str]] = []
+    grids: list[str] = []
+    unplayed = 0
     for first, second in comparisons_of(study):
         a, b = local(first, study.name), local(second, study.name)
         if a is None or b is None:
@@ -159,8 +162,9 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
         if not a_names or not b_names:
             continue
         label = f"`{a}` vs `{b}`"
-        unplayed = missing_pairings(series, a_names, b_names)
-        missing += [f"`{x}` vs `{y}`" for x, y in unplayed]
+        records = pair_records(series, a_names, b_names, allow_missing=True)
+        missing = sum(r is None for row in records for r in row)
+        unplayed += missing
         estimate = cross_score(series, a_names, b_names, allow_missing=True)
         cell = f"{estimate.value:.3f} [{estimate.low:.3f}, {estimate.high:.3f}]"
         if min(len(a_names), len(b_names)) < 2:  # no seed spread to resample on that side
@@ -169,11 +173,10 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
             verdicts.append(head_to_head_verdict(f"{study.name}: {label}", estimate))
         pairs = len(a_names) * len(b_names)
         teams_cell = f"{len(a_names)} x {len(b_names)}"
-        if unplayed:
-            teams_cell += f" ({pairs - len(unplayed)} of {pairs} pairs played)"
+        if missing:
+            teams_cell += f" ({pairs - missing} of {pairs} pairs played)"
         head_rows.append([label, teams_cell, cell])
-        for row in paired_scores(series, a_names, b_names, allow_missing=True):
-            pair_rows.append([label, *row.cells()])
+        grids += ["", *pair_grid(a, b, a_names, b_names, records)]
     lines += [
         "Head-to-head, first configuration's score against the second over every pair of "
         "their seeds; the 95% interval resamples the seeds of both sides and the matches "
@@ -181,24 +184,35 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
         "",
         *table(["first vs second", "teams", "score [95% CI]"], head_rows),
         "",
-        "The same pairings, seed k against seed k (score with its 95% Wilson interval over "
-        "the pair's matches):",
-        "",
-        *table(["first vs second", "seed", "W/D/L of first", "score [95% Wilson]"], pair_rows),
+        "Every seed pair: the row team's score against the column team (wins + draws / 2 "
+        f"per match, over the pair's matches; — not played).{PLAYED_ONLY if unplayed else ''}",
+        *grids,
     ]
-    if missing:
-        lost = [f"`{team_name(r)}`" for r in playable(study, runs)[1]]
+    lost = [f"`{team_name(r)}`" for r in playable(study, runs)[1]]
+    if unplayed and lost:
         lines += [
             "",
-            f"Not played ({len(missing)} pairs; the scores above average the pairs played, "
-            f"and their bootstrap resamples only those): {', '.join(missing)}.",
+            f"Every pair not played ({unplayed} in all) holds a team whose weights are lost "
+            f"(trained before runs kept their `final_team.pt`), which meets no team trained "
+            f"after them: {', '.join(lost)}.",
         ]
-        if lost:
-            lines[-1] += (
-                f" Teams whose weights are lost (trained before runs kept their "
-                f"`final_team.pt`), which meet no team trained after them: {', '.join(lost)}."
-            )
     return lines, verdicts
+
+
+def pair_grid(
+    a: str,
+    b: str,
+    a_names: Sequence[str],
+    b_names: Sequence[str],
+    records: Sequence[Sequence[Record | None]],
+) -> list[str]:
+    """A table of ``a``'s teams (rows) against ``b``'s (columns): each pair's score."""
+    rows = [
+        [f"`{name.rsplit('/', 1)[-1]}`", *("—" if r is None else f"{r.score:.2f}" for r in row)]
+        for name, row in zip(a_names, records, strict=True)
+    ]
+    header = [f"`{a}` (rows) vs `{b}`", *(f"`{name.rsplit('/', 1)[-1]}`" for name in b_names)]
+    return table(header, rows)
 
 
 def ratings_table(series: Sequence[Series]) -> list[str]:
