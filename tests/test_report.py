@@ -54,7 +54,7 @@ def toy_study(root: Path) -> Study:
     return Study("toy", "A toy study.", "tennis", ("hierarchical", "ppo"), (0, 1, 2), 100, root)
 
 
-def write_run(root: Path, config: str, seed: int, rewards: list[float]) -> Path:
+def write_run(root: Path, config: str, seed: int, rewards: list[float], study: str = "toy") -> Path:
     """A synthetic run: metrics.csv (steps 10, 20, …), its Hydra records and train.log,
     and the summary.json that ``reproduce`` writes after training."""
     run = root / config / f"seed_{seed}"
@@ -63,7 +63,7 @@ def write_run(root: Path, config: str, seed: int, rewards: list[float]) -> Path:
     (run / ".hydra" / "config.yaml").write_text(
         f"env:\n  name: tennis\ncritic:\n  fusion: {fusion}\nseed: {seed}\n"
     )
-    overrides = ["study=toy", f"critic={config}", f"seed={seed}"]
+    overrides = [f"study={study}", f"critic={config}", f"seed={seed}"]
     (run / ".hydra" / "overrides.yaml").write_text("".join(f"- {o}\n" for o in overrides))
     (run / "train.log").write_text("code version: abc123\n")
     with (run / "metrics.csv").open("w", newline="") as f:
@@ -92,7 +92,7 @@ def write_run(root: Path, config: str, seed: int, rewards: list[float]) -> Path:
                 i + 1,
             ]
             writer.writerow(row)
-    planned = PlannedRun("toy", config, seed, 100, root)
+    planned = PlannedRun(study, config, seed, 100, root)
     write_summary(run, summarise(planned, run))
     return run
 
@@ -408,6 +408,52 @@ def test_teams_without_weights_keep_their_series_and_miss_only_new_pairings(
     )
     standings.play(toy["toy"], runs, 2, 0)
     assert entered == [["hierarchical/seed_1", "ppo/seed_1", *BUILT_INS]]
+
+
+def test_a_borrowing_study_meets_the_lenders_teams_that_kept_their_weights(
+    toy: dict[str, Study],
+    results: Path,
+    tmp_path_factory: pytest.TempPathFactory,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from benchmarks.reporting import standings, study
+    from rlhc.final_team import save_team
+
+    # "toy" borrows ppo from "lender": lender's ppo seed 0 kept its weights, seed 1 did not.
+    lender_root = tmp_path_factory.mktemp("lender")
+    lender = Study("lender", "Lends.", "tennis", ("ppo",), (0, 1), 100, lender_root)
+    for seed in (0, 1):
+        write_run(lender_root, "ppo", seed, [0.1 * i for i in range(10)], study="lender")
+    state = {"env": "tennis", "config": {}, "frames": 100, "actors": {}, "env_transform": {}}
+    save_team(lender_root / "ppo" / "seed_0", state)
+    for seed in (0, 1):
+        save_team(results / "hierarchical" / f"seed_{seed}", state)
+    monkeypatch.setitem(study.BORROWED, "toy", ("lender/ppo",))
+    runs = discover({**toy, "lender": lender})
+    assert [e.name for e in standings.guests(toy["toy"], runs)] == ["lender/ppo/seed_0"]
+
+    entered: list[tuple[list[str], object]] = []
+    monkeypatch.setattr(standings, "play_round_robin",
+                        lambda env, e, m, s, store, involving: entered.append(
+                            ([x.name for x in e], involving)))  # fmt: skip
+    standings.play(toy["toy"], runs, 2, 0)
+    ((names, involving),) = entered
+    assert "lender/ppo/seed_0" in names and "lender/ppo/seed_1" not in names
+    assert involving == {n for n in names if not n.startswith("lender/")}  # own and built-in
+
+    guest = "lender/ppo/seed_0"
+    played = [Series(h, guest, "v", "v", 10, 0, 6, 0, 4, "c") for h in
+              ["hierarchical/seed_0", "hierarchical/seed_1"]]  # fmt: skip
+    played += [Series(t, "random", "v", "v", 10, 0, 9, 0, 1, "c") for t in [*names[:-2]]]
+    store = {"format": 2, "env": "tennis", "series": [x.__dict__ for x in played]}
+    (results / STORE).write_text(json.dumps(store))
+    lines, verdicts = study_matches(toy["toy"], runs)
+    text = "\n".join(lines)
+    assert "| `hierarchical` vs `lender/ppo` | 2 x 1 | 0.600 [" in text
+    assert "| `hierarchical` (rows) vs `lender/ppo` | `seed_0` |" in text
+    assert "whose weights are lost could not come: `lender/ppo/seed_1`." in text
+    assert "| `ppo` vs `lender/ppo` | 2 x 1 | no pair played |" in text  # own ppo: lost
+    assert "no verdict" in text and verdicts == []  # one guest seed: no seed spread
 
 
 def test_reproduce_trains_each_run_through_its_study_config(tmp_path: Path) -> None:

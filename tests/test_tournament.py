@@ -281,6 +281,25 @@ def test_store_round_trips_and_a_second_call_plays_nothing(
     assert [p.name for p in store.parent.iterdir()] == ["round_robin.json"]  # no temporaries
 
 
+def test_involving_plays_only_the_pairings_of_those_teams(
+    tmp_path: Path, plays: list[tuple[str, str]]
+) -> None:
+    # Another study's teams come to meet this study's: their own pairings (with each
+    # other and the built-in teams) are that study's, not replayed here.
+    own = [fake_run(tmp_path, "mean/seed_0", 100), fake_run(tmp_path, "manager/seed_0", 100)]
+    guests = [
+        fake_run(tmp_path, "paper/ppo/seed_3", 100),
+        fake_run(tmp_path, "paper/hc/seed_3", 100),
+    ]
+    entrants = [*own, *guests, *BUILT_INS]
+    series = play_round_robin("tennis", entrants, 2, 0, tmp_path / "s.json", {e.name for e in own})
+    # 15 pairings of 6 entrants, less guest-guest (1), guest-built-in (4), built-in-built-in (1)
+    assert len(plays) == len(series) == 9
+    assert all({home, away} & {"mean/seed_0", "manager/seed_0"} for home, away in plays)
+    with pytest.raises(ValueError, match=r"involving=\['nonesuch'\]: not among the entrants"):
+        play_round_robin("tennis", entrants, 2, 0, tmp_path / "s.json", ["nonesuch"])
+
+
 def test_a_new_checkpoint_or_match_count_replays_only_what_changed(
     tmp_path: Path, plays: list[tuple[str, str]]
 ) -> None:

@@ -34,7 +34,7 @@ from .statistics import (
     threshold,
     window_points,
 )
-from .study import PLAY_METRIC, SMOOTHING, THRESHOLD_FRACTION, table_configs
+from .study import PLAY_METRIC, SMOOTHING, THRESHOLD_FRACTION, lenders, table_configs
 
 #: The hand-written block, kept from the previous document.
 INTERPRETATION = "interpretation"
@@ -63,9 +63,12 @@ def build_report(
     if plan is None:
         plan = {name: study for name, study in studies().items() if name in args.study}
     runs = discover(plan)
+    # and the runs of the studies whose configs a reported study borrows
+    lent = {name: s for name, s in studies().items() if name in lenders(plan) - set(plan)}
+    known = [*runs, *discover(lent)]
     if args.matches > 0:
         for study in plan.values():
-            play(study, runs, args.matches, args.match_seed)
+            play(study, known, args.matches, args.match_seed)
     planned = sum(study.planned for study in plan.values())
     done = sum(r.complete for r in runs)
     lines = [
@@ -82,7 +85,7 @@ def build_report(
     ]
     verdicts: list[str] = []
     for study in plan.values():
-        section, study_verdicts = study_section(study, runs, args)
+        section, study_verdicts = study_section(study, known, args)
         lines += block(f"study {study.name}", section)
         verdicts += study_verdicts
     match_lines = [
@@ -93,7 +96,7 @@ def build_report(
         "",
     ]
     for study in plan.values():
-        section, match_verdicts = study_matches(study, runs)
+        section, match_verdicts = study_matches(study, known)
         match_lines += [*section, ""]
         verdicts += match_verdicts
     aggregate_lines, aggregate_verdicts = aggregates_section(plan, runs)

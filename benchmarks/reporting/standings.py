@@ -26,7 +26,7 @@ from .formatting import fmt_interval, share_interval, table
 from .plan import Study
 from .ratings import cross_score, pair_records, ratings
 from .runs import StudyRun, complete_runs
-from .study import comparisons_of
+from .study import BORROWED, comparisons_of
 from .tournament import Entrant, Record, Series, load_series, play_round_robin
 
 #: The study's series, next to its runs.
@@ -59,24 +59,43 @@ def playable(study: Study, runs: Sequence[StudyRun]) -> tuple[list[StudyRun], li
     return found
 
 
-def entrants(study: Study, runs: Sequence[StudyRun]) -> list[Entrant]:
-    """The study's playable final teams (:func:`playable`), then the built-in teams."""
-    return [Entrant(team_name(r), str(r.path)) for r in playable(study, runs)[0]] + [
-        Entrant(name, name) for name in BUILT_IN
+def guests(study: Study, runs: Sequence[StudyRun]) -> list[Entrant]:
+    """The playable final teams of the configs a study borrows from another
+    (:data:`reporting.study.BORROWED`), named ``<study>/<config>/seed_<k>``: they come
+    to this study's round robin to meet its own teams."""
+    from rlhc.final_team import has_team
+
+    borrowed = BORROWED.get(study.name, ())
+    return [
+        Entrant(f"{r.study}/{team_name(r)}", str(r.path))
+        for name in borrowed
+        for r in complete_runs(runs, name)
+        if has_team(r.path)
     ]
+
+
+def entrants(study: Study, runs: Sequence[StudyRun]) -> list[Entrant]:
+    """The study's playable final teams (:func:`playable`), its guests (:func:`guests`),
+    then the built-in teams."""
+    own = [Entrant(team_name(r), str(r.path)) for r in playable(study, runs)[0]]
+    return [*own, *guests(study, runs), *(Entrant(name, name) for name in BUILT_IN)]
 
 
 def play(study: Study, runs: Sequence[StudyRun], matches: int, seed: int) -> None:
     """Play the study's missing pairings among its playable teams into its store.
 
-    A complete run without weights on disk (:func:`playable`) is named and skipped:
-    its stored series stay in the store.
+    Guests meet the study's own teams only (their other pairings are their own study's).
+    A complete run without weights on disk (:func:`playable`) is named and skipped: its
+    stored series stay in the store.
     """
     lost = playable(study, runs)[1]
     if lost:
         print(f"{study.name}: no final team or checkpoint, so no new pairing, for "
               f"{', '.join(team_name(r) for r in lost)}", flush=True)  # fmt: skip
-    play_round_robin(study.env, entrants(study, runs), matches, seed, store_of(study))
+    teams = entrants(study, runs)
+    visitors = {e.name for e in guests(study, runs)}
+    involving = {e.name for e in teams if e.name not in visitors} if visitors else None
+    play_round_robin(study.env, teams, matches, seed, store_of(study), involving)
 
 
 @dataclass(frozen=True)
@@ -123,18 +142,22 @@ def record_against(series: Sequence[Series], team: str, opponent: str) -> Record
     return None
 
 
-def local(name: str, study: str) -> str | None:
-    """``config`` of ``study/config`` if it is this study's, else ``None`` (borrowed)."""
+def shown_config(name: str, study: str) -> str:
+    """``config`` of this study's ``study/config``; another study's keeps its study."""
     owner, _, config = name.partition("/")
-    return config if owner == study else None
+    return config if owner == study else name
 
 
 def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], list[str]]:
     """A study's match section and its head-to-head verdicts (from the store only)."""
     series = load_series(store_of(study)) if store_of(study).is_file() else []
     heading = [f"### `{study.name}` ({study.env})", ""]
-    teams = {team_name(r) for r in runs if r.study == study.name and r.complete}
-    series = [s for s in series if {s.home, s.away} <= teams | set(BUILT_IN)]
+    own = {team_name(r) for r in runs if r.study == study.name and r.complete}
+    # guests that came (:func:`guests`); those whose weights are lost never could
+    visitors = {f"{r.study}/{team_name(r)}" for n in BORROWED.get(study.name, ())
+                for r in complete_runs(runs, n)}  # fmt: skip
+    visited = {name for s in series for name in (s.home, s.away)} & visitors
+    series = [s for s in series if {s.home, s.away} <= own | visited | set(BUILT_IN)]
     if not series:
         return [*heading, "No series played yet."], []
     per_pairing = sorted({s.matches for s in series})
@@ -149,22 +172,38 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
         *built_in_table(study, series, runs),
         "",
     ]
+    if visited:
+        lines[-1:-1] = [
+            "",
+            f"Teams named `<study>/<config>/seed_<k>` are another study's, here to meet this "
+            f"study's teams only (their other series are in their own study's round robin); "
+            f"those whose weights are lost could not come: "
+            f"{', '.join(f'`{t}`' for t in sorted(visitors - visited)) or 'none'}.",
+        ]
+
+    def members(name: str) -> list[str]:
+        """The teams of ``study/config`` in this round robin."""
+        owner, _, config = name.partition("/")
+        if owner == study.name:
+            return sorted(t for t in own if t.startswith(f"{config}/"))
+        return sorted(t for t in visited if t.startswith(f"{name}/"))
+
     verdicts: list[str] = []
     head_rows: list[list[str]] = []
     grids: list[str] = []
     unplayed = 0
     for first, second in comparisons_of(study):
-        a, b = local(first, study.name), local(second, study.name)
-        if a is None or b is None:
-            continue  # borrowed configs live in another study's round robin
-        a_names = sorted(t for t in teams if t.startswith(f"{a}/"))
-        b_names = sorted(t for t in teams if t.startswith(f"{b}/"))
+        a_names, b_names = members(first), members(second)
         if not a_names or not b_names:
             continue
+        a, b = shown_config(first, study.name), shown_config(second, study.name)
         label = f"`{a}` vs `{b}`"
         records = pair_records(series, a_names, b_names, allow_missing=True)
         missing = sum(r is None for row in records for r in row)
         unplayed += missing
+        if missing == len(a_names) * len(b_names):
+            head_rows.append([label, f"{len(a_names)} x {len(b_names)}", "no pair played"])
+            continue
         estimate = cross_score(series, a_names, b_names, allow_missing=True)
         cell = f"{estimate.value:.3f} [{estimate.low:.3f}, {estimate.high:.3f}]"
         if min(len(a_names), len(b_names)) < 2:  # no seed spread to resample on that side
@@ -177,6 +216,8 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
             teams_cell += f" ({pairs - missing} of {pairs} pairs played)"
         head_rows.append([label, teams_cell, cell])
         grids += ["", *pair_grid(a, b, a_names, b_names, records)]
+    if not head_rows:
+        return lines[:-1], verdicts
     lines += [
         "Head-to-head, first configuration's score against the second over every pair of "
         "their seeds; the 95% interval resamples the seeds of both sides and the matches "

@@ -7,6 +7,7 @@ the report needs.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from itertools import combinations
 
 from .plan import Study
@@ -28,6 +29,16 @@ CRITICS = ("hierarchical", "twin", "ppo")
 #: Studies whose tables also hold configs of another study (``study/config``): the
 #: extensions are compared with the paper's tennis critics.
 BORROWED = {"tennis_extensions": ("tennis_paper/hierarchical", "tennis_paper/ppo")}
+
+
+def lenders(names: Iterable[str]) -> set[str]:
+    """The studies whose configs the studies ``names`` borrow.
+
+    Examples:
+        >>> sorted(lenders(["tennis_extensions", "soccer_paper"]))
+        ['tennis_paper']
+    """
+    return {b.partition("/")[0] for name in names for b in BORROWED.get(name, ())}
 
 
 def table_configs(study: Study) -> list[str]:

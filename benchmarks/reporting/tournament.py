@@ -28,7 +28,7 @@ import math
 import os
 import secrets
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -317,6 +317,7 @@ def play_round_robin(
     matches: int,
     seed: int,
     store: str | os.PathLike[str],
+    involving: Collection[str] | None = None,
 ) -> list[Series]:
     """Play every pairing of ``entrants`` the store does not hold as it would be played now.
 
@@ -327,13 +328,17 @@ def play_round_robin(
         matches: matches per pairing (half with each team on each side).
         seed: seeds every series (python, numpy, torch and the game).
         store: the study's ``round_robin.json`` (created if absent).
+        involving: only the pairings with at least one of these entrants (e.g. a study's
+            own teams, when other entrants are another study's, already matched there);
+            ``None``: every pairing.
 
     Returns:
-        The series between these entrants, one per pairing, in round-robin order.
+        The series of those pairings, in round-robin order.
 
     Raises:
         ValueError: fewer than 2 entrants, a repeated name, ``matches < 1``, entrants
-            of another game or of differing options, or a store of another game.
+            of another game or of differing options, a store of another game, or a name
+            in ``involving`` that is not an entrant.
     """
     from .summary import code_version
 
@@ -342,13 +347,18 @@ def play_round_robin(
         raise ValueError(f"entrants {names}: need at least 2, each name once")
     if matches < 1:
         raise ValueError(f"matches={matches}; allowed: an integer >= 1")
+    unknown = sorted(set(involving or ()) - set(names))
+    if unknown:
+        raise ValueError(f"involving={unknown}: not among the entrants {names}")
     path = Path(store)
     stored_env, stored = _read_store(path)
     if stored_env not in (None, env_name):
         raise ValueError(f"store {str(path)!r} holds {stored_env!r} series, not {env_name!r}")
     loaded = {e.name: load_entrant(e, env_name) for e in entrants}
     shared_options(list(loaded.values()))  # fail before the first match, not mid-way
-    pairings = round_robin(names)
+    pairings = [
+        (a, b) for a, b in round_robin(names) if involving is None or {a, b} & set(involving)
+    ]
     todo = [
         (a, b)
         for a, b in pairings
