@@ -367,7 +367,7 @@ def test_matches_section_reads_the_store(toy: dict[str, Study], results: Path) -
     assert "15 series, 150 matches (10 per pairing" in text
     assert "| `hierarchical` vs `ppo` | 2 x 2 | 0.700 [" in text
     assert "| `hierarchical` (rows) vs `ppo` | `seed_0` | `seed_1` |" in text
-    assert "| `seed_0` | 0.70 | 0.70 |" in text
+    assert "| `seed_0` | 0.700 | 0.700 |" in text
     assert "| `hierarchical` | 0.150 [0.150, 0.150] | 0.15, 0.15 | 0.111 [0.111, 0.111] |" in text
     assert verdicts == [
         next(v for v in verdicts if v.startswith("toy: `hierarchical` vs `ppo` head-to-head"))
@@ -398,7 +398,7 @@ def test_teams_without_weights_keep_their_series_and_miss_only_new_pairings(
     text = "\n".join(study_matches(toy["toy"], runs)[0])
     assert "| `hierarchical` vs `ppo` | 2 x 2 (3 of 4 pairs played) | 0.700 [" in text
     # Rows hierarchical seed_0, seed_1; columns ppo seed_0, seed_1.
-    assert "| `seed_0` | 0.70 | — |" in text and "| `seed_1` | 0.70 | 0.70 |" in text
+    assert "| `seed_0` | 0.700 | — |" in text and "| `seed_1` | 0.700 | 0.700 |" in text
     assert "Every pair not played (1 in all) holds a team whose weights are lost" in text
     assert "`hierarchical/seed_0`, `ppo/seed_0`." in text
     # Only the teams with weights on disk enter the next round robin.

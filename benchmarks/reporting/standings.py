@@ -249,7 +249,7 @@ def pair_grid(
 ) -> list[str]:
     """A table of ``a``'s teams (rows) against ``b``'s (columns): each pair's score."""
     rows = [
-        [f"`{name.rsplit('/', 1)[-1]}`", *("—" if r is None else f"{r.score:.2f}" for r in row)]
+        [f"`{name.rsplit('/', 1)[-1]}`", *("—" if r is None else f"{r.score:.3f}" for r in row)]
         for name, row in zip(a_names, records, strict=True)
     ]
     header = [f"`{a}` (rows) vs `{b}`", *(f"`{name.rsplit('/', 1)[-1]}`" for name in b_names)]
