@@ -399,8 +399,8 @@ def test_teams_without_weights_keep_their_series_and_miss_only_new_pairings(
     assert "| `hierarchical` vs `ppo` | 2 x 2 (3 of 4 pairs played) | 0.700 [" in text
     # Rows hierarchical seed_0, seed_1; columns ppo seed_0, seed_1.
     assert "| `seed_0` | 0.700 | — |" in text and "| `seed_1` | 0.700 | 0.700 |" in text
-    assert "Every pair not played (1 in all) holds a team whose weights are lost" in text
-    assert "`hierarchical/seed_0`, `ppo/seed_0`." in text
+    assert "Teams whose weights are lost" in text
+    assert "meet no team trained after them: `hierarchical/seed_0`, `ppo/seed_0`." in text
     # Only the teams with weights on disk enter the next round robin.
     entered: list[list[str]] = []
     monkeypatch.setattr(

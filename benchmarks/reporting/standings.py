@@ -153,11 +153,11 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
     series = load_series(store_of(study)) if store_of(study).is_file() else []
     heading = [f"### `{study.name}` ({study.env})", ""]
     own = {team_name(r) for r in runs if r.study == study.name and r.complete}
-    # guests that came (:func:`guests`); those whose weights are lost never could
-    visitors = {f"{r.study}/{team_name(r)}" for n in BORROWED.get(study.name, ())
-                for r in complete_runs(runs, n)}  # fmt: skip
-    visited = {name for s in series for name in (s.home, s.away)} & visitors
-    series = [s for s in series if {s.home, s.away} <= own | visited | set(BUILT_IN)]
+    # The guests that came (:func:`guests`); those whose weights are lost never could.
+    invited = {f"{r.study}/{team_name(r)}" for n in BORROWED.get(study.name, ())
+               for r in complete_runs(runs, n)}  # fmt: skip
+    came = {name for s in series for name in (s.home, s.away)} & invited
+    series = [s for s in series if {s.home, s.away} <= own | came | set(BUILT_IN)]
     if not series:
         return [*heading, "No series played yet."], []
     per_pairing = sorted({s.matches for s in series})
@@ -168,76 +168,83 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
         "deterministic actions).",
         "",
         *ratings_table(series),
-        "",
-        *built_in_table(study, series, runs),
-        "",
     ]
-    if visited:
-        lines[-1:-1] = [
+    if came:
+        absent = ", ".join(f"`{t}`" for t in sorted(invited - came)) or "none"
+        lines += [
             "",
-            f"Teams named `<study>/<config>/seed_<k>` are another study's, here to meet this "
-            f"study's teams only (their other series are in their own study's round robin); "
-            f"those whose weights are lost could not come: "
-            f"{', '.join(f'`{t}`' for t in sorted(visitors - visited)) or 'none'}.",
+            "Teams named `<study>/<config>/seed_<k>` are another study's, here to meet this "
+            "study's teams only (their other series are in their own study's round robin); "
+            f"those whose weights are lost could not come: {absent}.",
         ]
+    lines += ["", *built_in_table(study, series, runs)]
 
     def members(name: str) -> list[str]:
         """The teams of ``study/config`` in this round robin."""
         owner, _, config = name.partition("/")
         if owner == study.name:
             return sorted(t for t in own if t.startswith(f"{config}/"))
-        return sorted(t for t in visited if t.startswith(f"{name}/"))
+        return sorted(t for t in came if t.startswith(f"{name}/"))
 
+    compared = [
+        (shown_config(first, study.name), shown_config(second, study.name), a_names, b_names)
+        for first, second in comparisons_of(study)
+        if (a_names := members(first)) and (b_names := members(second))
+    ]
+    section, verdicts = head_to_head(study.name, series, compared)
+    lost = [f"`{team_name(r)}`" for r in playable(study, runs)[1]]
+    if section and lost:
+        section += [
+            "",
+            "Teams whose weights are lost (trained before runs kept their `final_team.pt`) "
+            f"keep their series but meet no team trained after them: {', '.join(lost)}.",
+        ]
+    return [*lines, *([""] if section else []), *section], verdicts
+
+
+def head_to_head(
+    study: str,
+    series: Sequence[Series],
+    compared: Sequence[tuple[str, str, Sequence[str], Sequence[str]]],
+) -> tuple[list[str], list[str]]:
+    """The head-to-head tables of ``(first, second, first's teams, second's teams)``
+    comparisons (nothing if none), and a verdict for each with a seed spread per side."""
     verdicts: list[str] = []
-    head_rows: list[list[str]] = []
+    rows: list[list[str]] = []
     grids: list[str] = []
     unplayed = 0
-    for first, second in comparisons_of(study):
-        a_names, b_names = members(first), members(second)
-        if not a_names or not b_names:
-            continue
-        a, b = shown_config(first, study.name), shown_config(second, study.name)
-        label = f"`{a}` vs `{b}`"
+    for a, b, a_names, b_names in compared:
+        label, pairs = f"`{a}` vs `{b}`", len(a_names) * len(b_names)
         records = pair_records(series, a_names, b_names, allow_missing=True)
         missing = sum(r is None for row in records for r in row)
         unplayed += missing
-        if missing == len(a_names) * len(b_names):
-            head_rows.append([label, f"{len(a_names)} x {len(b_names)}", "no pair played"])
+        teams = f"{len(a_names)} x {len(b_names)}"
+        if missing == pairs:
+            rows.append([label, teams, "no pair played"])
             continue
         estimate = cross_score(series, a_names, b_names, allow_missing=True)
         cell = f"{estimate.value:.3f} [{estimate.low:.3f}, {estimate.high:.3f}]"
         if min(len(a_names), len(b_names)) < 2:  # no seed spread to resample on that side
             cell += " (one seed on a side: no seed spread in the interval, no verdict)"
         else:
-            verdicts.append(head_to_head_verdict(f"{study.name}: {label}", estimate))
-        pairs = len(a_names) * len(b_names)
-        teams_cell = f"{len(a_names)} x {len(b_names)}"
+            verdicts.append(head_to_head_verdict(f"{study}: {label}", estimate))
         if missing:
-            teams_cell += f" ({pairs - missing} of {pairs} pairs played)"
-        head_rows.append([label, teams_cell, cell])
+            teams += f" ({pairs - missing} of {pairs} pairs played)"
+        rows.append([label, teams, cell])
         grids += ["", *pair_grid(a, b, a_names, b_names, records)]
-    if not head_rows:
-        return lines[:-1], verdicts
-    lines += [
+    if not rows:
+        return [], verdicts
+    return [
         "Head-to-head, first configuration's score against the second over every pair of "
         "their seeds; the 95% interval resamples the seeds of both sides and the matches "
         "within each pair (two-level bootstrap), so it includes the spread between seeds:",
         "",
-        *table(["first vs second", "teams", "score [95% CI]"], head_rows),
+        *table(["first vs second", "teams", "score [95% CI]"], rows),
         "",
         "Every seed pair: the row team's score against the column team (wins + draws / 2 "
         f"per match, over the pair's matches; — not played).{PLAYED_ONLY if unplayed else ''}",
         *grids,
-    ]
-    lost = [f"`{team_name(r)}`" for r in playable(study, runs)[1]]
-    if unplayed and lost:
-        lines += [
-            "",
-            f"Every pair not played ({unplayed} in all) holds a team whose weights are lost "
-            f"(trained before runs kept their `final_team.pt`), which meets no team trained "
-            f"after them: {', '.join(lost)}.",
-        ]
-    return lines, verdicts
+    ], verdicts
 
 
 def pair_grid(
