@@ -191,9 +191,9 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
         for first, second in comparisons_of(study)
         if (a_names := members(first)) and (b_names := members(second))
     ]
-    section, verdicts = head_to_head(study.name, series, compared)
+    section, verdicts, unplayed = head_to_head(study.name, series, compared)
     lost = [f"`{team_name(r)}`" for r in playable(study, runs)[1]]
-    if section and lost:
+    if unplayed and lost:
         section += [
             "",
             "Teams whose weights are lost (trained before runs kept their `final_team.pt`) "
@@ -206,9 +206,10 @@ def head_to_head(
     study: str,
     series: Sequence[Series],
     compared: Sequence[tuple[str, str, Sequence[str], Sequence[str]]],
-) -> tuple[list[str], list[str]]:
+) -> tuple[list[str], list[str], int]:
     """The head-to-head tables of ``(first, second, first's teams, second's teams)``
-    comparisons (nothing if none), and a verdict for each with a seed spread per side."""
+    comparisons (nothing if none), a verdict for each with a seed spread on both sides,
+    and the number of pairs not played."""
     verdicts: list[str] = []
     rows: list[list[str]] = []
     grids: list[str] = []
@@ -233,8 +234,8 @@ def head_to_head(
         rows.append([label, teams, cell])
         grids += ["", *pair_grid(a, b, a_names, b_names, records)]
     if not rows:
-        return [], verdicts
-    return [
+        return [], verdicts, unplayed
+    lines = [
         "Head-to-head, first configuration's score against the second over every pair of "
         "their seeds; the 95% interval resamples the seeds of both sides and the matches "
         "within each pair (two-level bootstrap), so it includes the spread between seeds:",
@@ -244,7 +245,8 @@ def head_to_head(
         "Every seed pair: the row team's score against the column team (wins + draws / 2 "
         f"per match, over the pair's matches; — not played).{PLAYED_ONLY if unplayed else ''}",
         *grids,
-    ], verdicts
+    ]
+    return lines, verdicts, unplayed
 
 
 def pair_grid(
