@@ -359,10 +359,11 @@ _DIAGNOSTICS = ("full_key:", "reference_type=", "object_type=", "key:", "value:"
 def remove_if_unused(run_dir: Path, job_log: str) -> None:
     """Remove ``run_dir`` if it holds nothing, or nothing but an empty ``job_log``.
 
-    Hydra creates a job's directory and opens its log before the job starts: a job that
-    fails before logging a line leaves just that. (It writes no ``.hydra/`` for such a
-    job: :func:`output_subdir`; a single run fails before Hydra creates anything:
-    :class:`Preflight`.)
+    Hydra creates a job's directory before the job starts; its log opens at the first
+    record (``delay: true``, ``conf/train.yaml``), or before the job under a logging
+    config without it: a job that fails before logging a line leaves just that. (It
+    writes no ``.hydra/`` for such a job: :func:`output_subdir`; a single run fails
+    before Hydra creates anything: :class:`Preflight`.)
 
     Args:
         run_dir: the job's directory.
