@@ -439,7 +439,7 @@ def test_a_borrowing_study_meets_the_lenders_teams_that_kept_their_weights(
     standings.play(toy["toy"], runs, 2, 0)
     ((names, involving),) = entered
     assert "lender/ppo/seed_0" in names and "lender/ppo/seed_1" not in names
-    assert involving == {n for n in names if not n.startswith("lender/")}  # own and built-in
+    assert involving == {"hierarchical/seed_0", "hierarchical/seed_1"}  # with weights
 
     guest = "lender/ppo/seed_0"
     played = [Series(h, guest, "v", "v", 10, 0, 6, 0, 4, "c") for h in

@@ -94,8 +94,8 @@ def play(study: Study, runs: Sequence[StudyRun], matches: int, seed: int) -> Non
               f"{', '.join(team_name(r) for r in lost)}", flush=True)  # fmt: skip
     teams = entrants(study, runs)
     visitors = {e.name for e in guests(study, runs)}
-    involving = {e.name for e in teams if e.name not in visitors} if visitors else None
-    play_round_robin(study.env, teams, matches, seed, store_of(study), involving)
+    own = {e.name for e in teams if e.name not in visitors and e.name not in BUILT_IN}
+    play_round_robin(study.env, teams, matches, seed, store_of(study), own if visitors else None)
 
 
 @dataclass(frozen=True)
