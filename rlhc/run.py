@@ -360,10 +360,10 @@ def remove_if_unused(run_dir: Path, job_log: str) -> None:
     """Remove ``run_dir`` if it holds nothing, or nothing but an empty ``job_log``.
 
     Hydra creates a job's directory before the job starts; its log opens at the first
-    record (``delay: true``, ``conf/train.yaml``), or before the job under a logging
-    config without it: a job that fails before logging a line leaves just that. (It
-    writes no ``.hydra/`` for such a job: :func:`output_subdir`; a single run fails
-    before Hydra creates anything: :class:`Preflight`.)
+    record (``delay: true``: ``conf/hydra/job_logging/rlhc.yaml``), or before the job
+    under a logging config without it: a job that fails before logging a line leaves
+    just that. (It writes no ``.hydra/`` for such a job: :func:`output_subdir`; a single
+    run fails before Hydra creates anything: :class:`Preflight`.)
 
     Args:
         run_dir: the job's directory.
