@@ -65,20 +65,17 @@ def guests(study: Study, runs: Sequence[StudyRun]) -> list[Entrant]:
     to this study's round robin to meet its own teams."""
     from rlhc.final_team import has_team
 
-    borrowed = BORROWED.get(study.name, ())
-    return [
-        Entrant(f"{r.study}/{team_name(r)}", str(r.path))
-        for name in borrowed
-        for r in complete_runs(runs, name)
-        if has_team(r.path)
-    ]
+    return [Entrant(guest_name(r), str(r.path)) for r in invited(study, runs) if has_team(r.path)]
 
 
-def entrants(study: Study, runs: Sequence[StudyRun]) -> list[Entrant]:
-    """The study's playable final teams (:func:`playable`), its guests (:func:`guests`),
-    then the built-in teams."""
-    own = [Entrant(team_name(r), str(r.path)) for r in playable(study, runs)[0]]
-    return [*own, *guests(study, runs), *(Entrant(name, name) for name in BUILT_IN)]
+def invited(study: Study, runs: Sequence[StudyRun]) -> list[StudyRun]:
+    """The complete runs of the configs a study borrows, weights kept or not."""
+    return [r for name in BORROWED.get(study.name, ()) for r in complete_runs(runs, name)]
+
+
+def guest_name(run: StudyRun) -> str:
+    """``<study>/<config>/seed_<k>``: another study's team in this study's round robin."""
+    return f"{run.study}/{team_name(run)}"
 
 
 def play(study: Study, runs: Sequence[StudyRun], matches: int, seed: int) -> None:
@@ -92,10 +89,11 @@ def play(study: Study, runs: Sequence[StudyRun], matches: int, seed: int) -> Non
     if lost:
         print(f"{study.name}: no final team or checkpoint, so no new pairing, for "
               f"{', '.join(team_name(r) for r in lost)}", flush=True)  # fmt: skip
-    teams = entrants(study, runs)
-    visitors = {e.name for e in guests(study, runs)}
-    own = {e.name for e in teams if e.name not in visitors and e.name not in BUILT_IN}
-    play_round_robin(study.env, teams, matches, seed, store_of(study), own if visitors else None)
+    own = [Entrant(team_name(r), str(r.path)) for r in playable(study, runs)[0]]
+    visiting = guests(study, runs)
+    teams = [*own, *visiting, *(Entrant(name, name) for name in BUILT_IN)]
+    involving = {e.name for e in own} if visiting else None  # guests meet only own teams
+    play_round_robin(study.env, teams, matches, seed, store_of(study), involving)
 
 
 @dataclass(frozen=True)
@@ -154,9 +152,8 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
     heading = [f"### `{study.name}` ({study.env})", ""]
     own = {team_name(r) for r in runs if r.study == study.name and r.complete}
     # The guests that came (:func:`guests`); those whose weights are lost never could.
-    invited = {f"{r.study}/{team_name(r)}" for n in BORROWED.get(study.name, ())
-               for r in complete_runs(runs, n)}  # fmt: skip
-    came = {name for s in series for name in (s.home, s.away)} & invited
+    asked = {guest_name(r) for r in invited(study, runs)}
+    came = {name for s in series for name in (s.home, s.away)} & asked
     series = [s for s in series if {s.home, s.away} <= own | came | set(BUILT_IN)]
     if not series:
         return [*heading, "No series played yet."], []
@@ -170,7 +167,7 @@ def study_matches(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str], li
         *ratings_table(series),
     ]
     if came:
-        absent = ", ".join(f"`{t}`" for t in sorted(invited - came)) or "none"
+        absent = ", ".join(f"`{t}`" for t in sorted(asked - came)) or "none"
         lines += [
             "",
             "Teams named `<study>/<config>/seed_<k>` are another study's, here to meet this "
