@@ -25,7 +25,7 @@ from benchmarks.reporting.formatting import (
 )
 from benchmarks.reporting.markdown import runs_section
 from benchmarks.reporting.plan import PlannedRun, Study, plan, read_study, studies
-from benchmarks.reporting.runs import complete_runs, discover
+from benchmarks.reporting.runs import StudyRun, complete_runs, discover
 from benchmarks.reporting.standings import BUILT_IN as BUILT_INS
 from benchmarks.reporting.standings import STORE, study_matches
 from benchmarks.reporting.statistics import (
@@ -95,6 +95,14 @@ def write_run(root: Path, config: str, seed: int, rewards: list[float], study: s
     planned = PlannedRun(study, config, seed, 100, root)
     write_summary(run, summarise(planned, run))
     return run
+
+
+def matches_with(played: list[Series], study: Study, runs: list[StudyRun]) -> tuple[str, list[str]]:
+    """The study's match section (as one text) and verdicts, its store holding ``played``."""
+    store = {"format": 2, "env": study.env, "series": [x.__dict__ for x in played]}
+    (study.root / STORE).write_text(json.dumps(store))
+    lines, verdicts = study_matches(study, runs)
+    return "\n".join(lines), verdicts
 
 
 @pytest.fixture
@@ -360,10 +368,7 @@ def test_matches_section_reads_the_store(toy: dict[str, Study], results: Path) -
     played += [series("scripted", "random", 10, 0, 0)]
     played += [series(h, p, 7, 0, 3) for h in teams[:2] for p in teams[2:]]
     played += [series(teams[0], teams[1], 5, 0, 5), series(teams[2], teams[3], 5, 0, 5)]
-    store = {"format": 2, "env": "tennis", "series": [s.__dict__ for s in played]}
-    (results / STORE).write_text(json.dumps(store))
-    lines, verdicts = study_matches(toy["toy"], runs)
-    text = "\n".join(lines)
+    text, verdicts = matches_with(played, toy["toy"], runs)
     assert "15 series, 150 matches (10 per pairing" in text
     assert "| `hierarchical` vs `ppo` | 2 x 2 | 0.700 [" in text
     assert "| `hierarchical` (rows) vs `ppo` | `seed_0` | `seed_1` |" in text
@@ -393,9 +398,7 @@ def test_teams_without_weights_keep_their_series_and_miss_only_new_pairings(
     played = [Series(h, p, "v", "v", 10, 0, 7, 0, 3, "c", 7, 3) for h, p in
               [(teams[0], teams[2]), (teams[1], teams[3]), (teams[1], teams[2])]]  # fmt: skip
     played += [Series(t, o, "v", "v", 10, 0, 5, 0, 5, "c") for t in teams for o in BUILT_INS]
-    store = {"format": 2, "env": "tennis", "series": [x.__dict__ for x in played]}
-    (results / STORE).write_text(json.dumps(store))
-    text = "\n".join(study_matches(toy["toy"], runs)[0])
+    text = matches_with(played, toy["toy"], runs)[0]
     assert "| `hierarchical` vs `ppo` | 2 x 2 (3 of 4 pairs played) | 0.700 [" in text
     # Rows hierarchical seed_0, seed_1; columns ppo seed_0, seed_1.
     assert "| `seed_0` | 0.700 | — |" in text and "| `seed_1` | 0.700 | 0.700 |" in text
@@ -444,11 +447,8 @@ def test_a_borrowing_study_meets_the_lenders_teams_that_kept_their_weights(
     guest = "lender/ppo/seed_0"
     played = [Series(h, guest, "v", "v", 10, 0, 6, 0, 4, "c") for h in
               ["hierarchical/seed_0", "hierarchical/seed_1"]]  # fmt: skip
-    played += [Series(t, "random", "v", "v", 10, 0, 9, 0, 1, "c") for t in [*names[:-2]]]
-    store = {"format": 2, "env": "tennis", "series": [x.__dict__ for x in played]}
-    (results / STORE).write_text(json.dumps(store))
-    lines, verdicts = study_matches(toy["toy"], runs)
-    text = "\n".join(lines)
+    played += [Series(t, "random", "v", "v", 10, 0, 9, 0, 1, "c") for t in names if "/" in t]
+    text, verdicts = matches_with(played, toy["toy"], runs)
     assert "| `hierarchical` vs `lender/ppo` | 2 x 1 | 0.600 [" in text
     assert "| `hierarchical` (rows) vs `lender/ppo` | `seed_0` |" in text
     assert "whose weights are lost could not come: `lender/ppo/seed_1`." in text

@@ -68,3 +68,11 @@ def test_a_task_with_one_run_is_held_fixed_in_the_bootstrap() -> None:
     improvement = probability_of_improvement([five, one], [[0.5, 0.5], [0.1]])
     assert improvement.value == pytest.approx((0.5 + 1.0) / 2)
     assert improvement.low <= improvement.value <= improvement.high
+    # Where the resampled tasks cannot vary, every resample is the full sample: the
+    # interval is the estimate itself, the single run's value included (dropping it from
+    # the resamples would move the interval to 0.5 in both cases).
+    fixed = iqm_interval([[0.5, 0.5], [0.9]])
+    assert fixed.low == pytest.approx(fixed.value) == pytest.approx(fixed.high)
+    assert fixed.value == pytest.approx((0.5 + 0.5 + 0.9) / 3)
+    fixed = probability_of_improvement([[0.5] * 3, [0.9]], [[0.5] * 3, [0.1]])
+    assert (fixed.low, fixed.value, fixed.high) == pytest.approx((0.75, 0.75, 0.75))
