@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from benchmarks import report as report_cli
+from benchmarks.reporting import document
 from benchmarks.reporting.blocks import HAND_WRITTEN, block, blocks_of, body_lines
 from benchmarks.reporting.document import build_report, command_line
 from benchmarks.reporting.formatting import (
@@ -37,7 +38,7 @@ from benchmarks.reporting.statistics import (
     steps_to_reach,
     threshold,
 )
-from benchmarks.reporting.study import comparisons_of, table_configs
+from benchmarks.reporting.study import PLAY_METRIC, PlayMetric, comparisons_of, table_configs
 from benchmarks.reporting.summary import (
     RunSummary,
     read_summary,
@@ -262,6 +263,26 @@ def test_finals_table_threshold_and_reach(toy: dict[str, Study]) -> None:
             first = int(np.flatnonzero(curve >= level)[0]) if (curve >= level).any() else None
             assert reach == (None if first is None else 10.0 * (first + 1))
     assert tables[0].reach[0] is not None  # the steeper config gets there
+
+
+def test_the_play_metric_interval_is_clipped_to_where_the_metric_lives(
+    toy: dict[str, Study], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    assert [PLAY_METRIC[game].share for game in ("tennis", "soccer")] == [False, True]
+    runs = discover(toy)
+
+    def final_cell(share: bool) -> list[float]:
+        column, title, _ = PLAY_METRIC["tennis"]
+        monkeypatch.setitem(document.PLAY_METRIC, "tennis", PlayMetric(column, title, share))
+        lines = document.play_and_speed(toy["toy"], runs, 0.5)
+        row = next(line for line in lines if line.startswith("| `toy/hierarchical`"))
+        interval = row.split(" | ")[1].partition("[")[2].rstrip("]")
+        return [float(x) for x in interval.split(", ")]
+
+    # two seeds ending near 1.7 hits per point: the t interval reaches above 1
+    low, high = final_cell(share=False)
+    assert 0.0 < low < 1.0 < high
+    assert final_cell(share=True) == [low, 1.0]  # a share (the goal rate) stays in [0, 1]
 
 
 def test_no_threshold_when_nothing_improves(tmp_path: Path) -> None:

@@ -21,7 +21,7 @@ from .aggregates import aggregates_section
 from .blocks import HAND_WRITTEN, block, blocks_of, body_lines
 from .environment import machine, versions
 from .figures import draw_study_curves
-from .formatting import fmt_interval, fmt_reach, positive_interval, table
+from .formatting import fmt_interval, fmt_reach, positive_interval, share_interval, table
 from .markdown import drift_lines, finals_section, runs_section, settings_section
 from .plan import Study, studies
 from .runs import StudyRun, complete_runs, discover, study_rate
@@ -264,11 +264,11 @@ def study_section(
     lines += [
         f"![{study.name} curves]({link})",
         "",
-        f"The paper's four metrics and {PLAY_METRIC[study.env][1]}, mean over complete "
+        f"The paper's four metrics and {PLAY_METRIC[study.env].title}, mean over complete "
         f"seeds with a 95% t band, EMA {SMOOTHING} smoothing. Finals: per run, the mean of "
         "the last 10% (by steps) of the smoothed curve; tables give the mean over seeds "
         "with its 95% t interval (clipped at 0 for what cannot be negative: steps, "
-        "lengths, hits, goals, speeds). Steps to threshold: mean [95% t] of the seeds that "
+        "lengths, hits, goals, speeds; to [0, 1] for shares). Steps to threshold: mean [95% t] of the seeds that "
         f"reached it. Here the final window holds {window_points(members)} logged points "
         "per run. In self-play both teams are the same policy, so a group's cumulative "
         "reward says how the game's reward splits between roles and sides, not how well the "
@@ -293,7 +293,7 @@ def play_and_speed(study: Study, runs: Sequence[StudyRun], fraction: float) -> l
     The threshold is ``fraction`` of the way from the mean initial value of every run in
     the table to the best configuration's mean final value (as for the rewards).
     """
-    column, title = PLAY_METRIC[study.env]
+    column, title, share = PLAY_METRIC[study.env]
     table_runs = {
         name: members for name in table_configs(study) if (members := complete_runs(runs, name))
     }
@@ -313,6 +313,7 @@ def play_and_speed(study: Study, runs: Sequence[StudyRun], fraction: float) -> l
     level = None
     if initials and means and max(means) > float(np.mean(initials)):
         level = threshold(float(np.mean(initials)), max(means), fraction)
+    final_interval = share_interval if share else positive_interval
     rows = []
     for name, members in table_runs.items():
         reach = [
@@ -328,7 +329,7 @@ def play_and_speed(study: Study, runs: Sequence[StudyRun], fraction: float) -> l
         rows.append(
             [
                 f"`{name}`",
-                fmt_interval(positive_interval([v for v in finals[name] if v is not None]), 3),
+                fmt_interval(final_interval([v for v in finals[name] if v is not None]), 3),
                 fmt_reach(reach) if level is not None else "—",
                 fmt_interval(positive_interval(speeds), 0, fixed=True),
                 fmt_interval(positive_interval(env_rates), 0, fixed=True),

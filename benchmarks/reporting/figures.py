@@ -28,8 +28,8 @@ def draw_study_curves(env: str, members: Sequence[StudyRun], out: Path) -> Path:
     Returns:
         ``out``.
     """
-    column, title = PLAY_METRIC[env]
-    metrics = {**PAPER_METRICS, column.rpartition("/")[2]: title}
+    play = PLAY_METRIC[env]
+    metrics = {**PAPER_METRICS, play.column.rpartition("/")[2]: play.title}
     groups: dict[str, list[Run]] = {}
     for run in members:
         groups.setdefault(run.name, []).append(run.curves())

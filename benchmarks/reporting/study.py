@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from itertools import combinations
+from typing import NamedTuple
 
 from .plan import Study
 
@@ -18,10 +19,22 @@ THRESHOLD_FRACTION = 0.5  # share of the way from the initial to the best final 
 ALPHA = 0.05
 #: game -> its group metrics' groups.
 GROUPS = {"tennis": ("racket",), "soccer": ("striker", "goalie")}
-#: game -> the ``metrics.csv`` column that says whether teams play, and its title.
+
+
+class PlayMetric(NamedTuple):
+    """The ``metrics.csv`` column that says whether a game's teams play."""
+
+    column: str
+    title: str
+    share: bool  # a share of episodes, in [0, 1] (its intervals are clipped to it)
+
+
+#: game -> its play metric.
 PLAY_METRIC = {
-    "tennis": ("events/hits_over_net_per_episode", "hits over the net per point"),
-    "soccer": ("episode_terminated", "goal rate (share of episodes ending in a goal)"),
+    "tennis": PlayMetric("events/hits_over_net_per_episode", "hits over the net per point", False),
+    "soccer": PlayMetric(
+        "episode_terminated", "goal rate (share of episodes ending in a goal)", True
+    ),
 }
 #: The paper's critic, its baseline, and the optimism control, in comparison order:
 #: each pair (first, second) present in a study is tested, first against second.
