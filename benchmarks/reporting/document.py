@@ -268,8 +268,9 @@ def study_section(
         f"seeds with a 95% t band, EMA {SMOOTHING} smoothing. Finals: per run, the mean of "
         "the last 10% (by steps) of the smoothed curve; tables give the mean over seeds "
         "with its 95% t interval (clipped at 0 for what cannot be negative: steps, "
-        "lengths, hits, goals, speeds; to [0, 1] for shares). Steps to threshold: mean [95% t] of the seeds that "
-        f"reached it. Here the final window holds {window_points(members)} logged points "
+        "lengths, hits, goals, speeds; to [0, 1] for shares). Steps to threshold: mean "
+        "[95% t] of the seeds that reached it. Here the final window holds "
+        f"{window_points(members)} logged points "
         "per run. In self-play both teams are the same policy, so a group's cumulative "
         "reward says how the game's reward splits between roles and sides, not how well the "
         "team plays; the matches below measure that.",
