@@ -51,8 +51,12 @@ def plot_groups(
     smoothing: float = 0.8,
     metrics: Mapping[str, str] = PAPER_METRICS,
     columns: int = 4,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
 ) -> Path:
     """Draw runs already grouped by configuration: ``label -> runs`` (see :func:`plot_runs`).
+
+    ``bounds`` maps a metric leaf to the values it can take; its bands are clipped
+    there (:func:`rlhc.runs.aggregate`). Metrics not in it are left unbounded.
 
     Raises:
         ValueError: no run logged any of ``metrics``.
@@ -71,15 +75,16 @@ def plot_groups(
     fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols, 3.2 * nrows), squeeze=False)
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, metric in zip(axes.flat, panels, strict=False):
+        group, _, leaf = metric.rpartition("/")
+        limits = (bounds or {}).get(leaf, (-math.inf, math.inf))
         for index, (label, members) in enumerate(groups.items()):
-            curve = aggregate(members, metric, smoothing)
+            curve = aggregate(members, metric, smoothing, bounds=limits)
             if curve is None:
                 continue
             colour = colours[index % len(colours)]
             ax.plot(curve.steps, curve.mean, color=colour, label=f"{label} (n={curve.runs})")
             if curve.runs > 1:
                 ax.fill_between(curve.steps, curve.low, curve.high, color=colour, alpha=0.2)
-        group, _, leaf = metric.rpartition("/")
         title = metrics.get(leaf, leaf)
         ax.set_title(f"{group}: {title}" if group else title)
         ax.set_xlabel("env steps")

@@ -257,12 +257,18 @@ class Curve:
 
 
 def aggregate(
-    runs: Sequence[Run], metric: str, smoothing: float = 0.8, confidence: float = 0.95
+    runs: Sequence[Run],
+    metric: str,
+    smoothing: float = 0.8,
+    confidence: float = 0.95,
+    bounds: tuple[float, float] = (-math.inf, math.inf),
 ) -> Curve | None:
     """Smooth each run's ``metric``, align the runs on common steps, and average them.
 
     Steps are the union of the runs' logged steps up to the shortest run's end; each
-    smoothed run is linearly interpolated there. ``None`` if no run logged ``metric``.
+    smoothed run is linearly interpolated there. The t band is clipped to ``bounds``,
+    the values ``metric`` can take (a count is never below 0, a share never above 1).
+    ``None`` if no run logged ``metric``.
     """
     series = []
     for run in runs:
@@ -281,7 +287,8 @@ def aggregate(
     if len(series) < 2:
         return Curve(grid, mean, mean, mean, 1)
     half = np.asarray(t_half_width(values.std(axis=0, ddof=1), len(series), confidence))
-    return Curve(grid, mean, mean - half, mean + half, len(series))
+    low, high = np.clip(mean - half, *bounds), np.clip(mean + half, *bounds)
+    return Curve(grid, mean, low, high, len(series))
 
 
 def panel_metrics(runs: Sequence[Run], leaves: Iterable[str] = PAPER_METRICS) -> list[str]:

@@ -12,6 +12,7 @@ import pytest
 
 from rlhc import plot
 from rlhc.runs import (
+    Run,
     aggregate,
     ema_smooth,
     final_values,
@@ -72,6 +73,20 @@ def test_seeds_are_grouped_and_averaged(runs: Path) -> None:
     assert curve is not None and curve.runs == 2
     np.testing.assert_allclose(curve.mean, 0.1 + 0.1 * np.arange(1, 11))
     assert np.all(curve.low < curve.mean) and np.all(curve.high > curve.mean)
+
+
+def test_the_band_is_clipped_to_the_values_the_metric_can_take() -> None:
+    steps = np.arange(1.0, 6.0)
+    # Two seeds of a share: one never scores, one always does. Their t band reaches
+    # far outside [0, 1]; the mean (0.5) stays where it is.
+    runs = [Run(Path(f"s{k}"), {"step": steps, "rate": np.full(5, float(k))}) for k in (0, 1)]
+    free = aggregate(runs, "rate", smoothing=0.0)
+    share = aggregate(runs, "rate", smoothing=0.0, bounds=(0.0, 1.0))
+    assert free is not None and share is not None
+    assert np.all(free.low < 0.0) and np.all(free.high > 1.0)
+    np.testing.assert_array_equal(share.low, np.zeros(5))
+    np.testing.assert_array_equal(share.high, np.ones(5))
+    np.testing.assert_array_equal(share.mean, free.mean)
 
 
 def test_final_values_are_last_tenth(runs: Path) -> None:

@@ -7,6 +7,7 @@ are :func:`draw_learning_curves`'s.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -29,11 +30,13 @@ def draw_study_curves(env: str, members: Sequence[StudyRun], out: Path) -> Path:
         ``out``.
     """
     play = PLAY_METRIC[env]
-    metrics = {**PAPER_METRICS, play.column.rpartition("/")[2]: play.title}
+    leaf = play.column.rpartition("/")[2]
+    metrics = {**PAPER_METRICS, leaf: play.title}
+    bounds = {"episode_length": (0.0, math.inf), leaf: play.bounds}
     groups: dict[str, list[Run]] = {}
     for run in members:
         groups.setdefault(run.name, []).append(run.curves())
-    return plot_groups(groups, out, SMOOTHING, metrics, columns=3)
+    return plot_groups(groups, out, SMOOTHING, metrics, columns=3, bounds=bounds)
 
 
 def draw_learning_curves(

@@ -7,6 +7,7 @@ the report needs.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from itertools import combinations
 from typing import NamedTuple
@@ -27,6 +28,11 @@ class PlayMetric(NamedTuple):
     column: str
     title: str
     share: bool  # a share of episodes, in [0, 1] (its intervals are clipped to it)
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        """The values the metric can take: a share lies in [0, 1], a count in [0, inf)."""
+        return (0.0, 1.0) if self.share else (0.0, math.inf)
 
 
 #: game -> its play metric.
