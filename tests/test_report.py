@@ -561,3 +561,29 @@ def test_plan_section_costs_each_study_from_its_measured_rate(toy: dict[str, Stu
     text = "\n".join(plan_section(toy, discover(toy)))
     assert "| 4 of 6 | 0.01 | 0.1 | 0.0 |" in text
     assert "In all: 0.1 core-hours planned, 0.0 left" in text
+
+
+def test_a_probability_of_improvement_on_too_few_runs_gets_no_verdict(
+    toy: dict[str, Study], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from benchmarks.reporting import aggregates
+
+    monkeypatch.setattr(aggregates, "TASK_GROUPS", {"the toy budget": ("toy",)})
+    runs = discover(toy)
+    # Both RLHC seeds outscore both PPO seeds against the built-in teams: P = 1, and every
+    # resample agrees, yet 2 runs against 2 separate completely by chance with p = 1/3.
+    wins = {"hierarchical": 8, "ppo": 2}
+    played = [Series(f"{c}/seed_{s}", o, "v", "v", 10, 0, w, 0, 10 - w, "c")
+              for c, w in wins.items() for s in (0, 1) for o in BUILT_INS]  # fmt: skip
+    matches_with(played, toy["toy"], runs)
+    lines, verdicts = aggregates.aggregates_section(toy, runs)
+    text = "\n".join(lines)
+    assert "| P(`hierarchical` > `ppo`) | `toy` | 1.000 [1.000, 1.000] (too few runs" in text
+    assert "p = 0.33 > 0.05" in text and verdicts == []
+    # The same runs at a level they can reach get their verdict.
+    monkeypatch.setattr(aggregates, "ALPHA", 0.5)
+    verdicts = aggregates.aggregates_section(toy, runs)[1]
+    assert verdicts == [
+        "The toy budget (`toy`): a run of `hierarchical` is more likely than not to outscore "
+        "a run of `ppo` (P = 1.000, 95% CI [1.000, 1.000])."
+    ]

@@ -7,14 +7,18 @@ on the same scale in both games. A *task* is a study; per critic, the IQM of the
 of every task pooled, with a stratified bootstrap interval
 (:func:`rlhc.evaluation.stats.iqm_interval`), and for each compared pair the probability
 that a run of the first beats a run of the second on a random task, with its interval
-(:func:`rlhc.evaluation.stats.probability_of_improvement`).
+(:func:`rlhc.evaluation.stats.probability_of_improvement`). A pair is given a verdict
+only if its runs are enough for one: a side with one run in a task has no spread to
+resample, and with few runs even a complete separation is likely by chance (2 runs
+against 2: p = 1/3; :func:`rlhc.evaluation.stats.separation_p_value`), while the
+bootstrap interval of such a split is a single point.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-from rlhc.evaluation.stats import iqm_interval, probability_of_improvement
+from rlhc.evaluation.stats import iqm_interval, probability_of_improvement, separation_p_value
 
 from .formatting import table
 from .plan import Study
@@ -23,6 +27,9 @@ from .standings import BUILT_IN, built_in_scores, store_of
 from .study import CRITICS
 from .tournament import Series, load_series
 
+#: A probability of improvement gets a verdict only if its runs could show a difference
+#: at this level (:func:`rlhc.evaluation.stats.separation_p_value`).
+ALPHA = 0.05
 #: Groups of tasks aggregated together: the paper's budget, and beyond it.
 TASK_GROUPS = {
     "the paper's budget": ("tennis_paper", "tennis_extended", "soccer_paper"),
@@ -86,8 +93,15 @@ def aggregates_section(
                 [scores[(t, first)] for t in shared], [scores[(t, second)] for t in shared]
             )
             cell = f"{estimate.value:.3f} [{estimate.low:.3f}, {estimate.high:.3f}]"
-            if min(len(scores[(t, c)]) for t in shared for c in (first, second)) < 2:
+            sizes = [(len(scores[(t, first)]), len(scores[(t, second)])) for t in shared]
+            floor = separation_p_value(sizes)
+            if min(min(size) for size in sizes) < 2:
                 cell += " (a side has 1 run in a task: no interval, no verdict)"
+            elif floor > ALPHA:
+                cell += (
+                    f" (too few runs for a verdict: even a complete separation of them has"
+                    f" p = {floor:.2f} > {ALPHA})"
+                )
             else:
                 verdicts.append(poi_verdict(group, first, second, shared, estimate))
             poi_rows.append(

@@ -291,3 +291,31 @@ def probability_of_improvement(
         return Estimate(value, value, value)
     interval = _bootstrap_interval([*xs, *ys], average, confidence, resamples, seed)
     return Estimate(value, *interval)
+
+
+def separation_p_value(sizes: Sequence[tuple[int, int]]) -> float:
+    """The smallest two-sided p-value a rank comparison of runs of these sizes can reach.
+
+    If the critic made no difference, the runs' order within each task is random: of
+    the ``C(n + m, n)`` ways to place ``n`` runs of X among ``m`` of Y, one puts every X
+    above every Y. So a complete separation in every task, in either direction, happens
+    by chance with this probability; with fewer runs, no result of theirs can be told
+    from chance at a level below it (2 runs against 2: 1/3).
+
+    Args:
+        sizes: per task, the number of runs of X and of Y.
+
+    Raises:
+        ValueError: no task, or a task without a run on a side.
+
+    Examples:
+        >>> round(separation_p_value([(2, 2)]), 3)
+        0.333
+        >>> round(separation_p_value([(5, 5)]), 4)
+        0.0079
+        >>> round(separation_p_value([(2, 2), (2, 2)]), 4)
+        0.0556
+    """
+    if not sizes or any(n < 1 or m < 1 for n, m in sizes):
+        raise ValueError(f"every task needs at least one run on each side, got sizes {sizes}")
+    return min(1.0, 2.0 * math.prod(1.0 / math.comb(n + m, n) for n, m in sizes))

@@ -5,7 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rlhc.evaluation.stats import iqm, iqm_interval, probability_of_improvement
+from rlhc.evaluation.stats import (
+    iqm,
+    iqm_interval,
+    probability_of_improvement,
+    separation_p_value,
+)
 
 
 def test_iqm_is_the_mean_of_the_middle_half() -> None:
@@ -76,3 +81,17 @@ def test_a_task_with_one_run_is_held_fixed_in_the_bootstrap() -> None:
     assert fixed.value == pytest.approx((0.5 + 0.5 + 0.9) / 3)
     fixed = probability_of_improvement([[0.5] * 3, [0.9]], [[0.5] * 3, [0.1]])
     assert (fixed.low, fixed.value, fixed.high) == pytest.approx((0.75, 0.75, 0.75))
+
+
+def test_the_separation_p_value_is_the_chance_of_a_complete_split() -> None:
+    # 2 runs against 2: 6 orderings of the labels, one split each way.
+    assert separation_p_value([(2, 2)]) == pytest.approx(2 / 6)
+    assert separation_p_value([(3, 3)]) == pytest.approx(2 / 20)  # still above 0.05
+    assert separation_p_value([(4, 4)]) == pytest.approx(2 / 70)  # the first below it
+    assert separation_p_value([(1, 1)]) == 1.0  # capped: a probability
+    # Independent tasks multiply: two tasks of 2 against 2 reach 2 / 36.
+    assert separation_p_value([(2, 2), (2, 2)]) == pytest.approx(2 / 36)
+    with pytest.raises(ValueError, match=r"at least one run on each side, got sizes \[\(3, 0\)\]"):
+        separation_p_value([(3, 0)])
+    with pytest.raises(ValueError, match="got sizes \\[\\]"):
+        separation_p_value([])
