@@ -24,12 +24,9 @@ from .formatting import table
 from .plan import Study
 from .runs import StudyRun
 from .standings import BUILT_IN, built_in_scores, store_of
-from .study import CRITICS
+from .study import ALPHA, CRITICS
 from .tournament import Series, load_series
 
-#: A probability of improvement gets a verdict only if its runs could show a difference
-#: at this level (:func:`rlhc.evaluation.stats.separation_p_value`).
-ALPHA = 0.05
 #: Groups of tasks aggregated together: the paper's budget, and beyond it.
 TASK_GROUPS = {
     "the paper's budget": ("tennis_paper", "tennis_extended", "soccer_paper"),

@@ -299,8 +299,8 @@ def separation_p_value(sizes: Sequence[tuple[int, int]]) -> float:
     If the critic made no difference, the runs' order within each task is random: of
     the ``C(n + m, n)`` ways to place ``n`` runs of X among ``m`` of Y, one puts every X
     above every Y. So a complete separation in every task, in either direction, happens
-    by chance with this probability; with fewer runs, no result of theirs can be told
-    from chance at a level below it (2 runs against 2: 1/3).
+    by chance with this probability, and no comparison of these runs can be told from
+    chance at a lower level (2 runs against 2: 1/3).
 
     Args:
         sizes: per task, the number of runs of X and of Y.
