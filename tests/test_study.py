@@ -90,10 +90,24 @@ def test_hierarchical_k5_consults_the_manager_every_5_decisions() -> None:
     assert (critic.fusion, critic.manager_interval, critic.manager_view) == ("max", 5, True)
 
 
-def test_the_smoke_experiment_shrinks_a_study_without_a_budget_of_its_own() -> None:
-    assert load("study=tennis_paper", "experiment=smoke").algo.max_steps == 512
-    # the study comes after the experiment in the defaults list: its own budget wins
-    assert load("study=soccer_best", "experiment=smoke").algo.max_steps == 1_000_000
+@pytest.mark.parametrize("study", sorted(STUDIES))
+def test_the_smoke_experiment_shrinks_a_study_and_keeps_it_out_of_its_results(study: str) -> None:
+    # the experiment comes after the study in the defaults list: smoke's budget wins, even
+    # over a study with a budget of its own (soccer_best)
+    assert load(f"study={study}", "experiment=smoke").algo.max_steps == 512
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        smoke = compose(
+            config_name="train",
+            overrides=[f"study={study}", "experiment=smoke"],
+            return_hydra_config=True,
+        )
+    sweep = OmegaConf.to_container(smoke.hydra.sweep, resolve=False)
+    # a smoke run never lands in (nor blocks the resume of) the study's real runs ...
+    assert sweep == {
+        "dir": "multirun/${now:%Y-%m-%d_%H-%M-%S}",
+        # ... and keeps the study's layout: a smoke multirun shows what the study writes
+        "subdir": "${hydra:runtime.choices.critic}/seed_${seed}",
+    }
 
 
 # --- resume=auto ---------------------------------------------------------------------
