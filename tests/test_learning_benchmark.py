@@ -93,3 +93,52 @@ def test_a_run_trained_with_other_overrides_is_refused(
     (run.run_dir / ".hydra" / "overrides.yaml").write_text("- env=tennis\n- critic=ppo\n")
     with pytest.raises(ValueError, match="was trained with overrides"):
         learning.check_overrides(run)
+
+
+def test_the_learning_figure_clips_each_band_to_the_values_its_metric_can_take(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import numpy as np
+
+    from benchmarks.reporting import figures
+    from benchmarks.reporting.learning import bounds_of, panels_of
+    from rlhc.runs import Run
+
+    # Two seeds of soccer: one never scores, one always does, with rewards of either
+    # sign. The goal rate's t band reaches outside [0, 1]; a reward's has no bounds.
+    steps = np.arange(1.0, 6.0)
+    runs = {
+        "ppo": [
+            Run(
+                tmp_path / f"seed_{k}",
+                {
+                    "step": steps,
+                    "episode_terminated": np.full(5, float(k)),
+                    "episode_length": np.full(5, 10.0 + 400.0 * k),
+                    "striker/cumulative_reward": np.full(5, 2.0 * k - 1.0),
+                },
+            )
+            for k in (0, 1)
+        ]
+    }
+    drawn = {}
+    aggregate = figures.aggregate
+
+    def recorded(members, metric, smoothing, bounds):  # type: ignore[no-untyped-def]
+        drawn[metric] = aggregate(members, metric, smoothing, bounds=bounds)
+        return drawn[metric]
+
+    monkeypatch.setattr(figures, "aggregate", recorded)
+    out = figures.draw_learning_curves(
+        runs, panels_of("soccer", runs), "soccer", tmp_path / "curves.png", 0.0, bounds_of("soccer")
+    )
+    assert out.stat().st_size > 0
+    goals, length, reward = (
+        drawn[k] for k in ("episode_terminated", "episode_length", "striker/cumulative_reward")
+    )
+    np.testing.assert_array_equal(goals.low, np.zeros(5))
+    np.testing.assert_array_equal(goals.high, np.ones(5))
+    np.testing.assert_array_equal(goals.mean, np.full(5, 0.5))
+    np.testing.assert_array_equal(length.low, np.zeros(5))
+    assert np.all(length.high > 410.0)
+    assert np.all(reward.low < -1.0) and np.all(reward.high > 1.0)

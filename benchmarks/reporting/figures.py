@@ -45,6 +45,7 @@ def draw_learning_curves(
     title: str,
     out: Path,
     smoothing: float,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
 ) -> Path:
     """One panel per metric, one line per critic: the mean over its seeds (each
     TensorBoard-smoothed), shaded by the 95% t interval across seeds.
@@ -55,6 +56,8 @@ def draw_learning_curves(
         title: the figure's title.
         out: the PNG to write.
         smoothing: TensorBoard smoothing weight, in ``[0, 1)``.
+        bounds: ``metrics.csv`` column -> the values it can take; its band is clipped
+            there (:func:`rlhc.runs.aggregate`), the mean is not. Others are unbounded.
 
     Returns:
         ``out``.
@@ -67,7 +70,8 @@ def draw_learning_curves(
     fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.6), squeeze=False)
     for ax, (metric, label) in zip(axes.flat, panels.items(), strict=True):
         for critic, members in runs.items():
-            curve = aggregate(members, metric, smoothing)
+            limits = (bounds or {}).get(metric, (-math.inf, math.inf))
+            curve = aggregate(members, metric, smoothing, bounds=limits)
             if curve is None:
                 continue
             seeds = f"{curve.runs} seed{'s' if curve.runs > 1 else ''}"

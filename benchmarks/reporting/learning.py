@@ -18,6 +18,7 @@ import numpy as np
 from rlhc.runs import METRICS_FILE, Run, read_metrics
 
 from .figures import draw_learning_curves
+from .study import PLAY_METRIC
 
 #: The built-in teams every final checkpoint plays.
 OPPONENTS = ("random", "scripted")
@@ -91,6 +92,18 @@ def panels_of(env: str, runs: Mapping[str, Sequence[Run]]) -> dict[str, str]:
     return panels
 
 
+def bounds_of(env: str) -> dict[str, tuple[float, float]]:
+    """The values each bounded panel of a game can take: episode length and hits per
+    point are counts (at least 0), the goal rate a share (in [0, 1]).
+
+    Examples:
+        >>> bounds_of("soccer")["episode_terminated"]
+        (0.0, 1.0)
+    """
+    play = PLAY_METRIC[env]
+    return {"episode_length": (0.0, math.inf), play.column: play.bounds}
+
+
 def plot_curves(
     run_dirs: Mapping[str, Sequence[Path]],
     env: str,
@@ -115,7 +128,7 @@ def plot_curves(
         ``out``.
     """
     runs = read_curves(run_dirs)
-    return draw_learning_curves(runs, panels_of(env, runs), title, out, smoothing)
+    return draw_learning_curves(runs, panels_of(env, runs), title, out, smoothing, bounds_of(env))
 
 
 def _share(value: float, width: int = 5) -> str:
