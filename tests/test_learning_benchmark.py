@@ -7,7 +7,12 @@ import math
 from pathlib import Path
 from types import ModuleType
 
+import numpy as np
 import pytest
+
+from benchmarks.reporting import figures
+from benchmarks.reporting.learning import bounds_of, panels_of
+from rlhc.runs import Curve, Run
 
 #: ``experiment=smoke`` (tiny networks and buffers) with a budget of five summaries.
 TINY = [
@@ -98,12 +103,6 @@ def test_a_run_trained_with_other_overrides_is_refused(
 def test_the_learning_figure_clips_each_band_to_the_values_its_metric_can_take(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import numpy as np
-
-    from benchmarks.reporting import figures
-    from benchmarks.reporting.learning import bounds_of, panels_of
-    from rlhc.runs import Run
-
     # Two seeds of soccer: one never scores, one always does, with rewards of either
     # sign. The goal rate's t band reaches outside [0, 1]; a reward's has no bounds.
     steps = np.arange(1.0, 6.0)
@@ -121,10 +120,12 @@ def test_the_learning_figure_clips_each_band_to_the_values_its_metric_can_take(
             for k in (0, 1)
         ]
     }
-    drawn = {}
+    drawn: dict[str, Curve | None] = {}
     aggregate = figures.aggregate
 
-    def recorded(members, metric, smoothing, bounds):  # type: ignore[no-untyped-def]
+    def recorded(
+        members: list[Run], metric: str, smoothing: float, bounds: tuple[float, float]
+    ) -> Curve | None:
         drawn[metric] = aggregate(members, metric, smoothing, bounds=bounds)
         return drawn[metric]
 
@@ -136,6 +137,7 @@ def test_the_learning_figure_clips_each_band_to_the_values_its_metric_can_take(
     goals, length, reward = (
         drawn[k] for k in ("episode_terminated", "episode_length", "striker/cumulative_reward")
     )
+    assert goals is not None and length is not None and reward is not None
     np.testing.assert_array_equal(goals.low, np.zeros(5))
     np.testing.assert_array_equal(goals.high, np.ones(5))
     np.testing.assert_array_equal(goals.mean, np.full(5, 0.5))
