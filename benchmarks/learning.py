@@ -71,6 +71,26 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         "league": ("league=mixed",),
         # The paper preset on 2 processes, collection overlapped with the update.
         "pipeline": ("parallel=pipeline",),
+        # Learning probe: a 4x entropy bonus, no decay of lr and beta, 10 M court-decisions
+        # (the paper preset's noise shrinks and its lr reaches 0 while hits still climb).
+        "probe_entropy": (
+            "algo.entropy_coef=0.02",
+            "algo.anneal_lr=false",
+            "algo.anneal_entropy_coef=false",
+            "algo.max_steps=10000000",
+            "checkpoint_freq=250000",
+        ),
+        # Learning probe: ML-Agents 0.5's Gaussian policy (state-free learned scale from 1,
+        # mean head at 0.01, no squashing), the paper's beta, no decay, 10 M.
+        "probe_gaussian": (
+            "model.action_dist=gaussian",
+            "model.initial_action_scale=1.0",
+            "model.head_init_scale=0.01",
+            "algo.anneal_lr=false",
+            "algo.anneal_entropy_coef=false",
+            "algo.max_steps=10000000",
+            "checkpoint_freq=250000",
+        ),
     },
     "soccer": {
         "paper": (),  # Table 3 as composed by conf/table3/soccer.yaml

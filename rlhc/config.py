@@ -74,11 +74,15 @@ class PPOConfig:
             and, as ML-Agents 0.5, leaves out the remainder.
         epochs: passes over each buffer.
         lr: Adam learning rate.
-        anneal_lr: decay the learning rate linearly to 0 over ``max_steps``.
-        anneal_entropy_coef: decay ``entropy_coef`` linearly to 1e-5 over ``max_steps``
-            (ML-Agents 0.5).
-        anneal_clip_epsilon: decay ``clip_epsilon`` linearly to 0.1 over ``max_steps``
-            (ML-Agents 0.5).
+        anneal_lr: decay the learning rate linearly to ``final_lr`` over ``max_steps``.
+        anneal_entropy_coef: decay ``entropy_coef`` linearly to ``final_entropy_coef``
+            over ``max_steps`` (ML-Agents 0.5).
+        anneal_clip_epsilon: decay ``clip_epsilon`` linearly to ``final_clip_epsilon``
+            over ``max_steps`` (ML-Agents 0.5).
+        final_lr: the learning rate's floor, reached at ``max_steps`` when annealed
+            (ML-Agents 0.5: 1e-10; later versions keep the rate constant).
+        final_entropy_coef: the entropy coefficient's floor (ML-Agents 0.5: 1e-5).
+        final_clip_epsilon: the clip range's floor (ML-Agents 0.5: 0.1).
         gamma: discount per decision.
         lmbda: GAE lambda.
         clip_epsilon: PPO ratio clip.
@@ -99,6 +103,9 @@ class PPOConfig:
     anneal_lr: bool = MISSING
     anneal_entropy_coef: bool = MISSING
     anneal_clip_epsilon: bool = MISSING
+    final_lr: float = 0.0
+    final_entropy_coef: float = 1e-5
+    final_clip_epsilon: float = 0.1
     gamma: float = measured_in("per decision", MISSING)
     lmbda: float = MISSING
     clip_epsilon: float = MISSING

@@ -97,11 +97,6 @@ from rlhc.validation import validate
 
 log = logging.getLogger(__name__)
 
-#: Where ML-Agents 0.5 decays the entropy coefficient and the clip range to (linearly
-#: over the budget, like the learning rate, which goes to 0).
-FINAL_ENTROPY_COEF = 1e-5
-FINAL_CLIP_EPSILON = 0.1
-
 #: Loss-output diagnostics averaged over minibatches and logged per group.
 LOSS_DIAGNOSTICS = (
     "loss_objective",
@@ -126,8 +121,9 @@ def seed_everything(seed: int) -> None:
 def schedules(algo: PPOConfig, frames: int) -> tuple[float, float, float]:
     """Learning rate, entropy coefficient and clip range after ``frames`` world-decisions.
 
-    As ML-Agents 0.5: each decays linearly over the budget (where enabled), the learning
-    rate to 0, the entropy coefficient to 1e-5, the clip range to 0.1.
+    As ML-Agents 0.5: each decays linearly over the budget (where enabled) to its floor
+    (``algo.final_lr``, ``final_entropy_coef``, ``final_clip_epsilon``; by default 0,
+    1e-5 and 0.1).
 
     Examples:
         >>> from rlhc.config import PPOConfig
@@ -135,13 +131,15 @@ def schedules(algo: PPOConfig, frames: int) -> tuple[float, float, float]:
         (0.0005, 0.005005, 0.15000000000000002)
     """
     progress = min(1.0, frames / algo.max_steps)
-    lr = algo.lr * (1.0 - progress) if algo.anneal_lr else algo.lr
+    lr = algo.lr
+    if algo.anneal_lr:
+        lr = algo.lr * (1.0 - progress) + algo.final_lr * progress
     entropy_coef = algo.entropy_coef
     if algo.anneal_entropy_coef:
-        entropy_coef += (FINAL_ENTROPY_COEF - entropy_coef) * progress
+        entropy_coef += (algo.final_entropy_coef - entropy_coef) * progress
     clip_epsilon = algo.clip_epsilon
     if algo.anneal_clip_epsilon:
-        clip_epsilon += (FINAL_CLIP_EPSILON - clip_epsilon) * progress
+        clip_epsilon += (algo.final_clip_epsilon - clip_epsilon) * progress
     return lr, entropy_coef, clip_epsilon
 
 

@@ -19,13 +19,7 @@ from rlhc.builders import Layout
 from rlhc.config import PPOConfig
 from rlhc.errors import ConfigError
 from rlhc.objectives import HierarchicalValueEstimator
-from rlhc.trainer import (
-    FINAL_CLIP_EPSILON,
-    FINAL_ENTROPY_COEF,
-    Trainer,
-    cut_trajectories,
-    schedules,
-)
+from rlhc.trainer import Trainer, cut_trajectories, schedules
 from rlhc.validation import validate
 
 
@@ -183,15 +177,31 @@ def test_lr_beta_and_epsilon_decay_linearly_over_the_budget() -> None:
     algo = PPOConfig(max_steps=1000, lr=3e-4, entropy_coef=0.005, clip_epsilon=0.2)
     assert schedules(algo, 0) == (3e-4, 0.005, 0.2)
     lr, beta, epsilon = schedules(algo, 1000)
-    assert (lr, beta, epsilon) == pytest.approx((0.0, FINAL_ENTROPY_COEF, FINAL_CLIP_EPSILON))
+    # ML-Agents 0.5's floors are the defaults: lr 0, beta 1e-5, epsilon 0.1.
+    assert (lr, beta, epsilon) == pytest.approx((0.0, 1e-5, 0.1))
     lr, beta, epsilon = schedules(algo, 250)
     assert lr == pytest.approx(3e-4 * 0.75)
-    assert beta == pytest.approx(0.005 + (FINAL_ENTROPY_COEF - 0.005) * 0.25)
+    assert beta == pytest.approx(0.005 + (1e-5 - 0.005) * 0.25)
     assert epsilon == pytest.approx(0.2 - 0.1 * 0.25)
     fixed = PPOConfig(
         max_steps=1000, anneal_lr=False, anneal_entropy_coef=False, anneal_clip_epsilon=False
     )
     assert schedules(fixed, 999) == (fixed.lr, fixed.entropy_coef, fixed.clip_epsilon)
+
+
+def test_schedules_decay_to_their_floors() -> None:
+    algo = PPOConfig(
+        max_steps=1000,
+        lr=3e-4,
+        entropy_coef=0.02,
+        clip_epsilon=0.2,
+        final_lr=1e-4,
+        final_entropy_coef=0.01,
+        final_clip_epsilon=0.15,
+    )
+    assert schedules(algo, 1000) == pytest.approx((1e-4, 0.01, 0.15))
+    assert schedules(algo, 5000) == pytest.approx((1e-4, 0.01, 0.15))  # past the budget
+    assert schedules(algo, 500) == pytest.approx((2e-4, 0.015, 0.175))
 
 
 def test_the_trainer_applies_the_schedules_to_the_losses(tmp_path: Path) -> None:

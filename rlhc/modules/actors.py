@@ -2,7 +2,9 @@
 
 | action spec | head | distribution |
 |---|---|---|
-| ``Bounded`` ``[..., n_g, size]`` (tennis) | loc, scale (``NormalParamExtractor``; the scale is ``cfg.initial_action_scale`` for a zero output) | ``TanhNormal`` squashed into the spec's bounds |
+| ``Bounded`` ``[..., n_g, size]`` (tennis), ``action_dist=tanh_normal`` | loc, scale (``NormalParamExtractor``; the scale is ``cfg.initial_action_scale`` for a zero output) | ``TanhNormal`` squashed into the spec's bounds |
+| the same, ``action_dist=tanh_normal_bounded`` | the same | ``TanhNormal`` with the pre-tanh mean bounded to ``cfg.loc_bound`` |
+| the same, ``action_dist=gaussian`` | loc; a learned log scale per action dimension, shared by every state and agent (``AddStateIndependentNormalScale``) | ``IndependentNormal``, unsquashed: the env clips the sample |
 | ``Categorical`` ``[..., n_g]`` (soccer) | logits | ``torch.distributions.Categorical`` (integer actions, as the spec) |
 
 Both write ``(g, "action")`` and its log-probability ``(g, "action_log_prob")``. With
@@ -13,10 +15,18 @@ Both write ``(g, "action")`` and its log-probability ``(g, "action_log_prob")``.
 from __future__ import annotations
 
 import torch
-from tensordict.nn import NormalParamExtractor, ProbabilisticTensorDictSequential, TensorDictModule
+import math
+from typing import Any
+
+from tensordict.nn import (
+    AddStateIndependentNormalScale,
+    NormalParamExtractor,
+    ProbabilisticTensorDictSequential,
+    TensorDictModule,
+)
 from torch import nn
 from torchrl.data import Bounded, Categorical, Composite
-from torchrl.modules import ProbabilisticActor, TanhNormal
+from torchrl.modules import IndependentNormal, MultiAgentMLP, ProbabilisticActor, TanhNormal
 
 from rlhc.envs.keys import ACTION, LOC, LOGITS, OBSERVATION, SCALE
 from rlhc.modules.config import NetworkConfig
@@ -32,6 +42,36 @@ def _per_agent_bound(bound: torch.Tensor, size: int, name: str) -> torch.Tensor:
     if not torch.all(rows == rows[0]):
         raise ValueError(f"action {name} bound differs between agents or worlds: {bound}")
     return rows[0].clone()
+
+
+def _scale_head(mlp: MultiAgentMLP, factor: float) -> MultiAgentMLP:
+    # The last Linear of the MLP is the policy head; ML-Agents 0.5 starts its mean head
+    # at 1 % of the usual initial weights, so that every action starts near 0.
+    if factor != 1.0:
+        head = list(mlp.params.keys(include_nested=True, leaves_only=True))[-2:]
+        with torch.no_grad():
+            for key in head:
+                mlp.params.get(key).mul_(factor)
+    return mlp
+
+
+def _continuous_head(
+    n_inputs: int, size: int, n_agents: int, cfg: NetworkConfig
+) -> tuple[nn.Module, type, dict[str, Any]]:
+    """The network writing (loc, scale), the distribution class and its fixed kwargs."""
+    if cfg.action_dist == "gaussian":
+        mlp = _scale_head(group_mlp(n_inputs, size, n_agents, cfg), cfg.head_init_scale)
+        scale = AddStateIndependentNormalScale(
+            size, scale_mapping="exp", init_value=math.log(cfg.initial_action_scale)
+        )
+        return nn.Sequential(mlp, scale), IndependentNormal, {}
+    # biased_softplus_b maps a zero output to scale b: the initial exploration noise.
+    mlp = _scale_head(group_mlp(n_inputs, 2 * size, n_agents, cfg), cfg.head_init_scale)
+    extractor = NormalParamExtractor(scale_mapping=f"biased_softplus_{cfg.initial_action_scale}")
+    kwargs: dict[str, Any] = {}
+    if cfg.action_dist == "tanh_normal_bounded":
+        kwargs = {"tanh_loc": True, "upscale": cfg.loc_bound}
+    return nn.Sequential(mlp, extractor), TanhNormal, kwargs
 
 
 def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticTensorDictSequential:
@@ -78,11 +118,10 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticTe
     out_spec = Composite({action_key: spec}, shape=env.full_action_spec.shape)
     if isinstance(spec, Bounded):
         size = int(spec.shape[-1])
-        # biased_softplus_b maps a zero output to scale b: the initial exploration noise.
-        extractor = NormalParamExtractor(
-            scale_mapping=f"biased_softplus_{cfg.initial_action_scale}"
-        )
-        net = nn.Sequential(group_mlp(n_inputs, 2 * size, n_agents, cfg), extractor)
+        net, distribution, kwargs = _continuous_head(n_inputs, size, n_agents, cfg)
+        if distribution is TanhNormal:
+            kwargs["low"] = _per_agent_bound(spec.space.low, size, "low")
+            kwargs["high"] = _per_agent_bound(spec.space.high, size, "high")
         params = TensorDictModule(
             net, in_keys=[(group, OBSERVATION)], out_keys=[(group, LOC), (group, SCALE)]
         )
@@ -91,11 +130,8 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticTe
             in_keys=[(group, LOC), (group, SCALE)],
             out_keys=[action_key],
             spec=out_spec,
-            distribution_class=TanhNormal,
-            distribution_kwargs={
-                "low": _per_agent_bound(spec.space.low, size, "low"),
-                "high": _per_agent_bound(spec.space.high, size, "high"),
-            },
+            distribution_class=distribution,
+            distribution_kwargs=kwargs,
             return_log_prob=True,
         )
     if isinstance(spec, Categorical):
