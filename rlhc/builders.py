@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import torch
@@ -205,11 +206,10 @@ def group_names(env: EnvBase) -> list[str]:
 def network_config(cfg: TrainConfig) -> NetworkConfig:
     """The network shape of ``cfg.model`` (the same for every group).
 
-        Examples:
-            >>> from rlhc.config import TrainConfig
-    from rlhc.errors import ConfigError
-            >>> network_config(TrainConfig()).shared_trunk
-            False
+    Examples:
+        >>> from rlhc.config import TrainConfig
+        >>> network_config(TrainConfig()).shared_trunk
+        False
     """
     return NetworkConfig(
         num_layers=cfg.model.num_layers,
@@ -218,6 +218,19 @@ def network_config(cfg: TrainConfig) -> NetworkConfig:
         initial_action_scale=cfg.model.initial_action_scale,
         shared_trunk=cfg.model.shared_trunk,
     )
+
+
+def trainable_parameters(losses: Mapping[str, torch.nn.Module]) -> list[torch.nn.Parameter]:
+    """The trainable parameters of every group's loss (actor + both critics), once each.
+
+    A shared trunk's parameters belong to the actor and the worker critic: listed once.
+    """
+    seen: dict[int, torch.nn.Parameter] = {}
+    for loss in losses.values():
+        for parameter in loss.parameters():
+            if parameter.requires_grad:
+                seen.setdefault(id(parameter), parameter)
+    return list(seen.values())
 
 
 def check_shared_trunk(cfg: TrainConfig, env: EnvBase) -> None:
@@ -241,12 +254,21 @@ def check_shared_trunk(cfg: TrainConfig, env: EnvBase) -> None:
 
 
 def make_agents(
-    cfg: TrainConfig, env: EnvBase
+    cfg: TrainConfig, env: EnvBase, *, learner_weighted: bool = False
 ) -> tuple[dict[str, torch.nn.Module], dict[str, HierarchicalPPOLoss]]:
     """One actor and one PPO loss (owning both critics) per group.
 
     With ``model.shared_trunk`` the actor and the worker critic are the two operators of
     one :func:`~rlhc.modules.make_actor_value` (the same trunk parameters).
+
+    Args:
+        cfg: a validated training config.
+        env: the env whose specs size the networks.
+        learner_weighted: build the losses for
+            :func:`~rlhc.objectives.learner_weighted_loss`, as the trainer does:
+            per-sample terms and no TorchRL standardisation (that function reduces the
+            terms and, with ``algo.normalize_advantage``, standardises the advantage
+            under the learner weight). Otherwise TorchRL's means and standardisation.
 
     Raises:
         ConfigError: ``model.shared_trunk=true`` on an env with continuous actions.
@@ -278,6 +300,7 @@ def make_agents(
             clip_epsilon=cfg.algo.clip_epsilon,
             entropy_coef=cfg.algo.entropy_coef,
             critic_coef=cfg.algo.critic_coef,
-            normalize_advantage=cfg.algo.normalize_advantage,
+            normalize_advantage=cfg.algo.normalize_advantage and not learner_weighted,
+            reduction="none" if learner_weighted else "mean",
         )
     return actors, losses

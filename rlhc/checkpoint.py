@@ -366,6 +366,13 @@ def flatten(config: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     return flat
 
 
+def seed_everything(seed: int) -> None:
+    """Seed python, numpy and torch (the game has its own generator, seeded by the env)."""
+    random.seed(seed)
+    np.random.seed(seed)
+    torch.manual_seed(seed)
+
+
 def rng_states() -> dict[str, Any]:
     """The global random states of python, numpy and torch."""
     return {

@@ -116,6 +116,31 @@ class PPOConfig:
     normalize_observations: bool = MISSING
 
 
+def schedules(algo: PPOConfig, frames: int) -> tuple[float, float, float]:
+    """Learning rate, entropy coefficient and clip range after ``frames`` world-decisions.
+
+    As ML-Agents 0.5: each decays linearly over the budget (where enabled) to its floor
+    (``algo.final_lr``, ``final_entropy_coef``, ``final_clip_epsilon``; by default 0,
+    1e-5 and 0.1).
+
+    Examples:
+        >>> from rlhc.config import PPOConfig
+        >>> schedules(PPOConfig(max_steps=100, lr=1e-3, entropy_coef=0.01, clip_epsilon=0.2), 50)
+        (0.0005, 0.005005, 0.15000000000000002)
+    """
+    progress = min(1.0, frames / algo.max_steps)
+    lr = algo.lr
+    if algo.anneal_lr:
+        lr = algo.lr * (1.0 - progress) + algo.final_lr * progress
+    entropy_coef = algo.entropy_coef
+    if algo.anneal_entropy_coef:
+        entropy_coef += (algo.final_entropy_coef - entropy_coef) * progress
+    clip_epsilon = algo.clip_epsilon
+    if algo.anneal_clip_epsilon:
+        clip_epsilon += (algo.final_clip_epsilon - clip_epsilon) * progress
+    return lr, entropy_coef, clip_epsilon
+
+
 @dataclass
 class ModelConfig(NetworkConfig):
     """The ``model`` section: the network schema plus the recurrent option's settings.

@@ -21,9 +21,9 @@ import torch
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
+from rlhc.checkpoint import seed_everything
 from rlhc.evaluation.commands import run_elo, run_match
 from rlhc.evaluation.config import EvaluateConfig, register_evaluate_configs
-from rlhc.trainer import seed_everything
 from rlhc.validation import validate_evaluate
 
 register_evaluate_configs()

@@ -59,7 +59,8 @@ from rlhc.config import RESUME_AUTO, TrainConfig, register_configs
 from rlhc.distributed import broadcast_object, launched_rank, launched_size, setup, shutdown
 from rlhc.errors import ConfigError
 from rlhc.interrupt import TrainingInterrupted
-from rlhc.trainer import Trainer, check_resumable
+from rlhc.trainer import Trainer
+from rlhc.training_state import check_resumable
 from rlhc.validation import validate
 
 PROGRAM = "rlhc.run"

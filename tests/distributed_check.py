@@ -20,8 +20,10 @@ import torch
 import torch.distributed as dist
 from configs import load_smoke
 
-from rlhc.distributed import Processes, broadcast_object, gather, setup, shutdown
-from rlhc.trainer import Trainer, cut_trajectories
+from rlhc.distributed import broadcast_object, gather, setup, shutdown
+from rlhc.objectives import cut_trajectories
+from rlhc.strategies import SingleProcess
+from rlhc.trainer import Trainer
 
 
 def main(out: Path, overrides: list[str]) -> None:
@@ -43,11 +45,12 @@ def main(out: Path, overrides: list[str]) -> None:
                 loss.value_estimator(batch)
         minibatch = batch.reshape(-1)[: 16 * size]
 
-        trainer.processes = Processes()  # one process, the whole minibatch
+        data_parallel = trainer.strategy
+        trainer.strategy = SingleProcess()  # one process, the whole minibatch
         trainer.backward(minibatch.clone())
         single = [p.grad.clone() for p in trainer.parameters]
 
-        trainer.processes = processes  # this rank's half, then the all-reduce
+        trainer.strategy = data_parallel  # this rank's half, then the all-reduce
         share = minibatch.shape[0] // size
         trainer.backward(minibatch[rank * share : (rank + 1) * share].clone())
         shared = [p.grad.clone() for p in trainer.parameters]

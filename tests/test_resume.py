@@ -21,6 +21,7 @@ from cli_runs import (
 )
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
+from tensordict import TensorDictBase
 
 from rlhc.checkpoint import (
     CHECKPOINT_DIR,
@@ -269,18 +270,30 @@ def test_a_resume_restores_the_saved_state_exactly(tmp_path: Path) -> None:
         assert_same(state[part], saved[part], part)
 
 
+def test_an_already_loaded_checkpoint_resumes_as_its_path_does(tmp_path: Path) -> None:
+    run = trained(tmp_path / "run", 128)
+    saved = load_checkpoint(run)
+    by_path = Trainer(load("algo.max_steps=256", f"resume={run}"), run).state()
+    given = Trainer(load("algo.max_steps=256"), run, resume_state=saved).state()
+    for part in ("frames", "iteration", "wall_time", "actors", "losses", "optimizer"):
+        assert_same(given[part], by_path[part], part)
+    for part in ("env_transform", "game_rng", "rng"):
+        assert_same(given[part], by_path[part], part)
+    # Checked as a loaded path is: the settings its weights belong to may not change.
+    with pytest.raises(ResumeError, match=r"model\.hidden_size: 32 -> 16"):
+        Trainer(load("model.hidden_size=16"), tmp_path / "other", resume_state=saved)
+
+
 def test_after_a_resume_every_world_starts_from_a_reset(tmp_path: Path) -> None:
     run = trained(tmp_path / "run", 128)
-    trainer = Trainer(load("algo.max_steps=192", f"resume={run}"), run)
     first_steps: list[torch.Tensor] = []
-    update = trainer._update
 
-    def record(batch):  # type: ignore[no-untyped-def]
-        first_steps.append(batch["step_count"][:, 0].flatten().clone())
-        return update(batch)
+    class Recording(Trainer):
+        def update(self, batch: TensorDictBase) -> dict[str, float]:
+            first_steps.append(batch["step_count"][:, 0].flatten().clone())
+            return super().update(batch)
 
-    trainer._update = record  # type: ignore[method-assign]
-    trainer.train()
+    Recording(load("algo.max_steps=192", f"resume={run}"), run).train()
     assert torch.equal(first_steps[0], torch.zeros_like(first_steps[0]))
 
 

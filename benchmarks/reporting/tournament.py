@@ -221,10 +221,10 @@ def play_pairing(
     process writes a newer checkpoint meanwhile.
     """
     # Imported here: torch and the games are only needed when matches are played.
+    from rlhc.checkpoint import seed_everything
     from rlhc.evaluation.matches import default_rules, make_match_env, play_matches
     from rlhc.evaluation.opponents import make_team_policy
     from rlhc.evaluation.policies import restore_policy
-    from rlhc.trainer import seed_everything
 
     seed_everything(seed)
     # The options come from the checkpoints already read (shared_options), not re-read.
