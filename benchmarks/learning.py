@@ -269,6 +269,13 @@ def evaluate(run: LearningRun, matches: int, seed: int) -> dict[str, Any]:
     return summaries
 
 
+def diagnose(state: dict[str, Any]) -> dict[str, Any]:
+    """The tennis play diagnostics of a checkpoint (``python -m rlhc.evaluation.diagnostics``)."""
+    from rlhc.evaluation.diagnostics import tennis_diagnostics
+
+    return tennis_diagnostics(state, worlds=EVAL_WORLDS, decisions=1000, seed=0)
+
+
 def record(run: LearningRun, args: argparse.Namespace) -> dict[str, Any]:
     """The JSON entry of a trained run: training facts, last metrics, both evaluations."""
     state = load_checkpoint(run.run_dir)
@@ -328,6 +335,8 @@ def record(run: LearningRun, args: argparse.Namespace) -> dict[str, Any]:
             "commands": evaluate_cli,
         },
         **{f"vs_{opponent}": summaries[opponent] for opponent in OPPONENTS},
+        # Why a tennis team does or does not rally (rlhc.evaluation.diagnostics).
+        **({"play_diagnostics": diagnose(state)} if run.env == "tennis" else {}),
         "benchmark_command": benchmark_command(args),
     }
 

@@ -6,6 +6,7 @@ exactly the networks that were trained.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from dataclasses import dataclass
@@ -211,12 +212,12 @@ def network_config(cfg: TrainConfig) -> NetworkConfig:
             >>> network_config(TrainConfig()).shared_trunk
             False
     """
+    # Every field of the network schema, so that a setting added to it reaches the nets.
     return NetworkConfig(
-        num_layers=cfg.model.num_layers,
-        hidden_size=cfg.model.hidden_size,
-        activation=cfg.model.activation,
-        initial_action_scale=cfg.model.initial_action_scale,
-        shared_trunk=cfg.model.shared_trunk,
+        **{
+            field.name: getattr(cfg.model, field.name)
+            for field in dataclasses.fields(NetworkConfig)
+        }
     )
 
 

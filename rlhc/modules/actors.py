@@ -14,10 +14,10 @@ Both write ``(g, "action")`` and its log-probability ``(g, "action_log_prob")``.
 
 from __future__ import annotations
 
-import torch
 import math
 from typing import Any
 
+import torch
 from tensordict.nn import (
     AddStateIndependentNormalScale,
     NormalParamExtractor,

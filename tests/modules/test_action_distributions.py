@@ -174,3 +174,22 @@ def test_bad_settings_name_the_value() -> None:
         NetworkConfig(head_init_scale=0.0)
     with pytest.raises(ValueError, match=r"model.loc_bound=-1.0; allowed"):
         NetworkConfig(loc_bound=-1.0)
+
+
+def test_the_training_config_reaches_the_networks() -> None:
+    # Every network setting of the ``model`` section is passed on to the builders.
+    from rlhc.builders import network_config
+    from rlhc.config import ModelConfig, TrainConfig
+
+    model = ModelConfig(
+        num_layers=1,
+        hidden_size=8,
+        activation="silu",
+        action_dist="gaussian",
+        initial_action_scale=0.7,
+        head_init_scale=0.01,
+        loc_bound=3.0,
+    )
+    built = network_config(TrainConfig(model=model))
+    for field in dataclasses.fields(NetworkConfig):
+        assert getattr(built, field.name) == getattr(model, field.name), field.name
