@@ -47,6 +47,7 @@ from omegaconf import OmegaConf
 from benchmarks.reporting.learning import OPPONENTS, means_over_seeds, plot_curves, table
 from benchmarks.reporting.summary import code_version
 from rlhc.checkpoint import CHECKPOINT_DIR, load_checkpoint
+from rlhc.evaluation.diagnostics import DIAGNOSTICS, diagnose
 from rlhc.evaluation.matches import evaluate_against, make_match_env
 from rlhc.evaluation.opponents import make_team_policy
 from rlhc.runs import METRICS_FILE, read_metrics
@@ -269,13 +270,6 @@ def evaluate(run: LearningRun, matches: int, seed: int) -> dict[str, Any]:
     return summaries
 
 
-def diagnose(state: dict[str, Any]) -> dict[str, Any]:
-    """The tennis play diagnostics of a checkpoint (``python -m rlhc.evaluation.diagnostics``)."""
-    from rlhc.evaluation.diagnostics import tennis_diagnostics
-
-    return tennis_diagnostics(state, worlds=EVAL_WORLDS, decisions=1000, seed=0)
-
-
 def record(run: LearningRun, args: argparse.Namespace) -> dict[str, Any]:
     """The JSON entry of a trained run: training facts, last metrics, both evaluations."""
     state = load_checkpoint(run.run_dir)
@@ -335,8 +329,12 @@ def record(run: LearningRun, args: argparse.Namespace) -> dict[str, Any]:
             "commands": evaluate_cli,
         },
         **{f"vs_{opponent}": summaries[opponent] for opponent in OPPONENTS},
-        # Why a tennis team does or does not rally (rlhc.evaluation.diagnostics).
-        **({"play_diagnostics": diagnose(state)} if run.env == "tennis" else {}),
+        # What the team does beyond who wins (python -m rlhc.evaluation.diagnostics).
+        **(
+            {"play_diagnostics": diagnose(state, worlds=EVAL_WORLDS, decisions=1000, seed=0)}
+            if run.env in DIAGNOSTICS
+            else {}
+        ),
         "benchmark_command": benchmark_command(args),
     }
 

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from rlhc.evaluation.diagnostics import ACTION_NAMES, main, tennis_diagnostics
+from rlhc.evaluation.diagnostics.__main__ import main
+from rlhc.evaluation.diagnostics.tennis import ACTION_NAMES, tennis_diagnostics
 from rlhc.final_team import load_team
 
 

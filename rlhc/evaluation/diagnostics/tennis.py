@@ -18,16 +18,14 @@ racket-decisions per mode. ``python -m rlhc.evaluation.diagnostics <run dir or .
 prints them as JSON.
 
 Examples:
-    >>> from rlhc.evaluation.diagnostics import NEAR_BALL, ACTION_NAMES
+    >>> from rlhc.evaluation.diagnostics.tennis import NEAR_BALL, ACTION_NAMES
     >>> NEAR_BALL, ACTION_NAMES
     (1.0, ('move', 'jump', 'tilt'))
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
 import torch
@@ -38,7 +36,6 @@ from rlhc.envs import make_env
 from rlhc.envs.keys import ACTION, INFO, NEXT, OBSERVATION, SCALE
 from rlhc.envs.tennis.observations import LENGTH_SCALE
 from rlhc.evaluation.policies import RestoredPolicy, observation_options, restore_policy
-from rlhc.final_team import load_team
 
 #: Metres between racket and ball under which a racket is "near the ball".
 NEAR_BALL = 1.0
@@ -155,27 +152,3 @@ def _per_dimension(values: torch.Tensor | None) -> dict[str, float]:
     if values is None:
         return dict.fromkeys(ACTION_NAMES, float("nan"))
     return {name: float(value) for name, value in zip(ACTION_NAMES, values, strict=True)}
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m rlhc.evaluation.diagnostics <run dir or .pt> [--worlds N] [--decisions T]``."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("team", help="a run directory, checkpoint or final-team file")
-    parser.add_argument("--worlds", type=int, default=32)
-    parser.add_argument("--decisions", type=int, default=1000)
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args(argv)
-    torch.set_num_threads(1)
-    try:
-        state = load_team(args.team)
-        result = tennis_diagnostics(
-            state, worlds=args.worlds, decisions=args.decisions, seed=args.seed
-        )
-    except (FileNotFoundError, ValueError) as error:
-        parser.exit(2, f"rlhc.evaluation.diagnostics: error: {error}\n")
-    print(json.dumps(result, indent=2))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
