@@ -92,6 +92,22 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
             "algo.max_steps=10000000",
             "checkpoint_freq=250000",
         ),
+        # Learning probe: probe_gaussian in a league: half the courts self-play, 30 %
+        # against the scripted team (which returns the ball: many more balls to play),
+        # 20 % against past selves.
+        "probe_gaussian_league": (
+            "model.action_dist=gaussian",
+            "model.initial_action_scale=1.0",
+            "model.head_init_scale=0.01",
+            "algo.anneal_lr=false",
+            "algo.anneal_entropy_coef=false",
+            "algo.max_steps=10000000",
+            "checkpoint_freq=250000",
+            "league=mixed",
+            "league.snapshot=0.2",
+            "league.scripted=0.3",
+            "league.random=0",
+        ),
     },
     "soccer": {
         "paper": (),  # Table 3 as composed by conf/table3/soccer.yaml
