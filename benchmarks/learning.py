@@ -81,12 +81,25 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
             "algo.max_steps=10000000",
             "checkpoint_freq=250000",
         ),
-        # Learning probe: ML-Agents 0.5's Gaussian policy (state-free learned scale from 1,
-        # mean head at 0.01, no squashing), the paper's beta, no decay, 10 M.
+        # Learning probe: a Gaussian policy (state-free learned scale from 1 in action units,
+        # mean head at 0.01, no squashing), the paper's beta, no decay, 10 M. Its scale is
+        # 3x ML-Agents' (no pre_clip_range): see probe_mlagents.
         "probe_gaussian": (
             "model.action_dist=gaussian",
             "model.initial_action_scale=1.0",
             "model.head_init_scale=0.01",
+            "algo.anneal_lr=false",
+            "algo.anneal_entropy_coef=false",
+            "algo.max_steps=10000000",
+            "checkpoint_freq=250000",
+        ),
+        # Learning probe: ML-Agents 0.5's Gaussian with its scaling (actions clip(u, -3, 3)/3,
+        # so the initial scale is a third of the action range), otherwise probe_gaussian.
+        "probe_mlagents": (
+            "model.action_dist=gaussian",
+            "model.initial_action_scale=1.0",
+            "model.head_init_scale=0.01",
+            "model.pre_clip_range=3.0",
             "algo.anneal_lr=false",
             "algo.anneal_entropy_coef=false",
             "algo.max_steps=10000000",

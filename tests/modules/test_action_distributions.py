@@ -193,3 +193,26 @@ def test_the_training_config_reaches_the_networks() -> None:
     built = network_config(TrainConfig(model=model))
     for field in dataclasses.fields(NetworkConfig):
         assert getattr(built, field.name) == getattr(model, field.name), field.name
+
+
+def test_pre_clip_range_is_ml_agents_scaling() -> None:
+    # ML-Agents 0.5 plays clip(u, -3, 3) / 3 with u ~ N(mu, 1): in action units a Normal
+    # of scale 1/3 around mu / 3, whose samples are those of range 1 divided by 3.
+    wide = dataclasses.replace(GAUSSIAN, pre_clip_range=1.0)
+    ml_agents = dataclasses.replace(GAUSSIAN, pre_clip_range=3.0)
+    torch.manual_seed(0)
+    reference = make_actor(make_specs(), GROUP, wide)
+    torch.manual_seed(0)
+    scaled = make_actor(make_specs(), GROUP, ml_agents)
+    td = observations()
+    torch.manual_seed(5)
+    with torch.no_grad():
+        a = reference(td.clone())
+    torch.manual_seed(5)
+    with torch.no_grad():
+        b = scaled(td.clone())
+    assert_close(b[GROUP, "scale"], torch.full_like(b[GROUP, "scale"], 1 / 3))
+    assert_close(b[GROUP, "loc"], a[GROUP, "loc"] / 3)
+    assert_close(b[GROUP, "action"], a[GROUP, "action"] / 3)
+    # The log-density of the same draw differs by the constant log 3 per dimension.
+    assert_close(b[GROUP, "action_log_prob"], a[GROUP, "action_log_prob"] + 3 * math.log(3))
