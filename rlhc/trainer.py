@@ -252,6 +252,8 @@ class Trainer:
             :func:`~rlhc.builders.with_training_transforms`.
         processes: this process's place in a ``torchrun`` run
             (:func:`rlhc.distributed.setup`); ``None``: one process.
+        resume_state: the checkpoint of ``cfg.resume``, already loaded
+            (:func:`~rlhc.checkpoint.load_checkpoint`); ``None``: load it here.
 
     Examples:
         >>> from hydra import compose, initialize_config_dir  # doctest: +SKIP
@@ -265,6 +267,8 @@ class Trainer:
         run_dir: Path,
         env: TransformedEnv | None = None,
         processes: Processes | None = None,
+        *,
+        resume_state: Mapping[str, Any] | None = None,
     ) -> None:
         self.processes = processes if processes is not None else Processes(mode=cfg.parallel)
         validate(cfg, self.processes.size)
@@ -275,7 +279,7 @@ class Trainer:
             torch.set_num_threads(cfg.threads)
         resume = None
         if cfg.resume and self.processes.main:
-            resume = load_checkpoint(cfg.resume)
+            resume = load_checkpoint(cfg.resume) if resume_state is None else dict(resume_state)
             check_resumable(cfg, resume)
         if self.processes.active and cfg.resume:
             resume = broadcast_object(resume)
