@@ -73,6 +73,10 @@ STATE_VALUE = "state_value"
 MANAGER_SELECTED = "manager_selected"
 ADVANTAGE = "advantage"
 VALUE_TARGET = "value_target"
+#: ``bool [*B, n_g, 1]``: the learning policy chose this agent's action (written by the
+#: league's collection policy; an opponent's agents in a league world are ``False``).
+#: PPO's terms weigh each experience by it (:mod:`rlhc.objectives.weighting`).
+LEARNER = "learner"
 
 # --- names of the built-in teams ------------------------------------------------------------
 #: The game's scripted team (a player of ``rlhc.evaluate``, an opponent of the league).
@@ -89,6 +93,7 @@ __all__ = [
     "EPISODE_REWARD",
     "HIDDEN",
     "INFO",
+    "LEARNER",
     "LOC",
     "LOGITS",
     "MANAGER_OBSERVATION",

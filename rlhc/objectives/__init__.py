@@ -4,6 +4,9 @@ Built on TorchRL's public API only (``tests/test_public_api.py`` checks it):
 :class:`FusedValue` is the two critics and their fusion as one TensorDict module,
 :class:`HierarchicalValueEstimator` is TorchRL's ``GAE`` on its output, and
 :class:`HierarchicalPPOLoss` is ``ClipPPOLoss`` with its critic hook trained on both.
+:func:`cut_trajectories` cuts a batch at the time horizon before the estimate, and
+:func:`learner_weighted_loss` reduces a loss's per-sample terms under the learner
+weight (a league world's opponents weigh 0).
 
 Examples:
     >>> from rlhc.objectives import HierarchicalValueEstimator, make_ppo_loss
@@ -11,28 +14,22 @@ Examples:
 
 from __future__ import annotations
 
-from rlhc.objectives.functional import (
-    FUSIONS,
-    HierarchicalAdvantage,
-    fuse_values,
-    generalized_advantage,
-    hierarchical_gae,
-    manager_consulted_mask,
-)
+from rlhc.objectives.functional import FUSIONS, fuse_values, manager_consulted_mask
 from rlhc.objectives.ppo import LOSS_KEYS, HierarchicalPPOLoss, make_ppo_loss
-from rlhc.objectives.value import FusedValue, HierarchicalValueEstimator, fuse_at_steps
+from rlhc.objectives.trajectories import cut_trajectories
+from rlhc.objectives.value import FusedValue, HierarchicalValueEstimator
+from rlhc.objectives.weighting import WeightedLoss, learner_weighted_loss
 
 __all__ = [
     "FUSIONS",
     "LOSS_KEYS",
     "FusedValue",
-    "HierarchicalAdvantage",
     "HierarchicalPPOLoss",
     "HierarchicalValueEstimator",
-    "fuse_at_steps",
+    "WeightedLoss",
+    "cut_trajectories",
     "fuse_values",
-    "generalized_advantage",
-    "hierarchical_gae",
+    "learner_weighted_loss",
     "make_ppo_loss",
     "manager_consulted_mask",
 ]

@@ -1,4 +1,4 @@
-"""Pure tensor maths of RLHC: fusing two critics, and GAE on the fused value.
+"""Pure tensor maths of RLHC: fusing two critics per agent and per step.
 
 Reinforcement Learning from Hierarchical Critics (Cao & Lin, arXiv 1902.03079)
 trains every worker with PPO, but replaces the state value inside GAE by a *fused*
@@ -22,19 +22,17 @@ The same functions give the paper's baselines and extensions through ``fusion``:
 and temporal scaling (the manager consulted every ``k`` steps only) through a
 ``manager_consulted`` mask: where it is false, ``V_hat = V_w``.
 
-Nothing here knows about TensorDicts or networks: everything is a tensor whose time
-dimension is ``time_dim`` and whose trailing dimensions (agents, feature) are kept
-independent. The advantage recursion itself is TorchRL's
-:func:`~torchrl.objectives.value.functional.vec_generalized_advantage_estimate`.
+Nothing here knows about TensorDicts or networks: every function is element-wise on
+tensors of any shape. GAE on the fused value is TorchRL's own, run by
+:class:`~rlhc.objectives.value.HierarchicalValueEstimator`; the tests hold a functional
+reference of it (``tests/objectives/reference_gae.py``), checked against a plain loop
+and closed forms, that the estimator must equal.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import torch
 from torch import Tensor
-from torchrl.objectives.value.functional import vec_generalized_advantage_estimate
 
 #: The fusion modes, in the order of the table above.
 FUSIONS: tuple[str, ...] = ("local", "manager", "max", "mean", "weighted")
@@ -146,166 +144,3 @@ def check_manager_interval(manager_interval: int) -> None:
         raise ValueError(f"manager_interval must be an integer >= 1, got {manager_interval!r}")
     if manager_interval < 1:
         raise ValueError(f"manager_interval must be an integer >= 1, got {manager_interval!r}")
-
-
-def generalized_advantage(
-    gamma: float | Tensor,
-    lmbda: float | Tensor,
-    value: Tensor,
-    next_value: Tensor,
-    reward: Tensor,
-    done: Tensor,
-    terminated: Tensor,
-    *,
-    time_dim: int,
-) -> tuple[Tensor, Tensor]:
-    """GAE over ``time_dim`` with every other dimension independent.
-
-    A thin shape-checking wrapper around TorchRL's vectorised GAE: ``done`` cuts the
-    lambda-trace (a new episode starts at ``t + 1``), ``terminated`` removes the
-    bootstrap ``gamma V(s_{t+1})``; a truncated step is done but not terminated, so it
-    bootstraps from the value of its true final observation.
-
-    Args:
-        gamma: discount.
-        lmbda: GAE lambda.
-        value: ``V(s_t)``, shape ``[*B, T, *F]`` with time at ``time_dim``.
-        next_value: ``V(s_{t+1})``, same shape.
-        reward: ``r_t``, same shape.
-        done: episode ended after step ``t`` (terminated or truncated), same shape.
-        terminated: episode ended without a future after step ``t``, same shape.
-        time_dim: the time dimension (negative counts from the end).
-
-    Returns:
-        ``(advantage, value_target)``, each shaped like ``value``; ``value_target =
-        advantage + value`` is the lambda-return.
-
-    Raises:
-        ValueError: the five tensors do not share one shape.
-    """
-    shapes = {
-        "value": value.shape,
-        "next_value": next_value.shape,
-        "reward": reward.shape,
-        "done": done.shape,
-        "terminated": terminated.shape,
-    }
-    if len(set(shapes.values())) != 1:
-        listed = ", ".join(f"{name} {tuple(shape)}" for name, shape in shapes.items())
-        raise ValueError(f"GAE inputs must share one shape, got {listed}")
-    if value.ndim < 2:
-        raise ValueError(
-            f"GAE inputs need a time and a feature dim, got shape {tuple(value.shape)}"
-        )
-    time_dim = time_dim % value.ndim
-    # TorchRL's kernel wants time at -2 with every leading dim a batch dim: moving
-    # the agent (and feature) dims before time keeps agents independent, so that a
-    # done at one agent never cuts another agent's trace.
-    moved = [
-        t.movedim(time_dim, -1).unsqueeze(-1)
-        for t in (value, next_value, reward, done.bool(), terminated.bool())
-    ]
-    advantage, value_target = vec_generalized_advantage_estimate(
-        gamma,
-        lmbda,
-        moved[0],
-        moved[1],
-        moved[2],
-        done=moved[3],
-        terminated=moved[4],
-        time_dim=-2,
-    )
-    return (
-        advantage.squeeze(-1).movedim(-1, time_dim),
-        value_target.squeeze(-1).movedim(-1, time_dim),
-    )
-
-
-class HierarchicalAdvantage(NamedTuple):
-    """What :func:`hierarchical_gae` returns; every field shaped like the values."""
-
-    advantage: Tensor
-    value_target: Tensor
-    fused_value: Tensor
-    next_fused_value: Tensor
-    manager_share: Tensor
-
-
-def hierarchical_gae(
-    gamma: float | Tensor,
-    lmbda: float | Tensor,
-    *,
-    worker_value: Tensor,
-    manager_value: Tensor,
-    next_worker_value: Tensor,
-    next_manager_value: Tensor,
-    reward: Tensor,
-    done: Tensor,
-    terminated: Tensor,
-    time_dim: int,
-    fusion: str = "max",
-    weight: float = 0.5,
-    manager_consulted: Tensor | None = None,
-    next_manager_consulted: Tensor | None = None,
-) -> HierarchicalAdvantage:
-    """GAE on the fused value ``V_hat``, used at ``t`` and at the bootstrap ``t + 1``.
-
-    Args:
-        gamma: discount.
-        lmbda: GAE lambda.
-        worker_value: ``V_w(o_w,t)``, shape ``[*B, T, *F]`` (e.g. ``F = (n_agents, 1)``).
-        manager_value: ``V_m(o_m,t)``, same shape.
-        next_worker_value: ``V_w(o_w,t+1)``, same shape.
-        next_manager_value: ``V_m(o_m,t+1)``, same shape.
-        reward: ``r_t``, same shape.
-        done: episode ended after step ``t``, same shape.
-        terminated: episode ended without a future after step ``t``, same shape.
-        time_dim: the time dimension.
-        fusion: one of :data:`FUSIONS`.
-        weight: the manager's weight in ``"weighted"`` fusion.
-        manager_consulted: where the manager is consulted at ``t`` (see
-            :func:`manager_consulted_mask`); ``None`` means everywhere.
-        next_manager_consulted: the same at ``t + 1``.
-
-    Returns:
-        A :class:`HierarchicalAdvantage`.
-
-    Examples:
-        >>> shape = (1, 3, 1)  # one trajectory, three steps, one feature
-        >>> out = hierarchical_gae(
-        ...     1.0, 1.0,
-        ...     worker_value=torch.zeros(shape), manager_value=torch.ones(shape),
-        ...     next_worker_value=torch.zeros(shape), next_manager_value=torch.ones(shape),
-        ...     reward=torch.ones(shape), done=torch.zeros(shape, dtype=torch.bool),
-        ...     terminated=torch.zeros(shape, dtype=torch.bool), time_dim=1,
-        ... )
-        >>> out.advantage.flatten()  # delta_t = 1 + 1 - 1 = 1, summed over the future
-        tensor([3., 2., 1.])
-    """
-    fused_value, manager_share = fuse_values(
-        worker_value,
-        manager_value,
-        fusion=fusion,
-        weight=weight,
-        manager_consulted=manager_consulted,
-    )
-    next_fused_value, _ = fuse_values(
-        next_worker_value,
-        next_manager_value,
-        fusion=fusion,
-        weight=weight,
-        manager_consulted=next_manager_consulted,
-    )
-    advantage, value_target = generalized_advantage(
-        gamma,
-        lmbda,
-        fused_value,
-        next_fused_value,
-        reward,
-        done,
-        terminated,
-        time_dim=time_dim,
-    )
-    return HierarchicalAdvantage(
-        advantage, value_target, fused_value, next_fused_value, manager_share
-    )

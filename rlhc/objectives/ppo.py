@@ -21,7 +21,6 @@ from tensordict.utils import NestedKey
 from torch import Tensor
 from torchrl.objectives import AUTO_LOSS_MASK_KEYS, ClipPPOLoss, ValueEstimators
 from torchrl.objectives.utils import distance_loss
-from torchrl.objectives.value import ValueEstimatorBase
 
 from rlhc.modules import keys
 from rlhc.objectives.value import HierarchicalValueEstimator
@@ -52,8 +51,10 @@ class HierarchicalPPOLoss(ClipPPOLoss):
     by the attached estimator. It is computed by :meth:`loss_critic`, the critic hook
     that ``ClipPPOLoss.forward`` calls; everything else (clipping, entropy bonus,
     advantage normalisation, reductions) is TorchRL's. Attach the estimator with
-    ``loss.make_value_estimator(HierarchicalValueEstimator(...))`` (or by assignment,
-    ``loss.value_estimator = ...``), or build both with :func:`make_ppo_loss`.
+    ``loss.make_value_estimator(HierarchicalValueEstimator(...))``, which also hands it
+    this loss's keys, or build both with :func:`make_ppo_loss`. (A plain assignment,
+    ``loss.value_estimator = estimator``, does not attach it: ``torch.nn.Module`` files
+    a module value under its own name before TorchRL's setter is reached.)
 
     Args:
         actor_network: the group's ``ProbabilisticActor``.
@@ -85,10 +86,13 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         Attributes:
             worker_value: the worker critic's output ``V_w``.
             manager_value: the manager critic's output ``V_m``.
+            learner: whether the learning policy chose the action (league worlds),
+                read by :func:`~rlhc.objectives.weighting.learner_weighted_loss`.
         """
 
         worker_value: NestedKey = keys.WORKER_VALUE
         manager_value: NestedKey = keys.MANAGER_VALUE
+        learner: NestedKey = keys.LEARNER
 
     default_keys = _AcceptedKeys
     tensor_keys: _AcceptedKeys
@@ -138,15 +142,6 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         )
         # What the last loss_critic call computed, for forward's diagnostics (detached).
         self._critic_split: tuple[Tensor, Tensor] | None = None
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if name == "value_estimator" and isinstance(value, ValueEstimatorBase):
-            # ``torch.nn.Module.__setattr__`` files a module under its own name and never
-            # reaches LossModule's ``value_estimator`` setter, so the assignment would be
-            # silently ignored: route it to the documented ``make_value_estimator``.
-            self.make_value_estimator(value)
-            return
-        super().__setattr__(name, value)
 
     @property
     def out_keys(self) -> list[str]:
@@ -318,7 +313,8 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         manager = self.critic_coeff * distance_loss(target, manager_value, self.loss_critic_type)
         with torch.no_grad():
             if isinstance(self.value_estimator, HierarchicalValueEstimator):
-                fused, _ = self.value_estimator.fuse(tensordict, worker_value, manager_value)
+                fusion = self.value_estimator.fused_value()
+                fused, _ = fusion.fuse(tensordict, worker_value, manager_value)
             else:
                 fused = worker_value
             explained = 1.0 - (target - fused).var(correction=0) / (
@@ -343,6 +339,7 @@ def make_ppo_loss(
     critic_coef: float = 0.5,
     normalize_advantage: bool = True,
     loss_critic_type: str = "l2",
+    reduction: str = "mean",
 ) -> HierarchicalPPOLoss:
     """The PPO loss of one group, with its hierarchical value estimator attached.
 
@@ -359,8 +356,13 @@ def make_ppo_loss(
         clip_epsilon: PPO ratio clip (paper: 0.2).
         entropy_coef: entropy bonus ``beta`` (paper: 0.005 tennis, 0.01 soccer).
         critic_coef: weight of each critic's regression term.
-        normalize_advantage: standardise the advantage per minibatch, per agent slot.
+        normalize_advantage: standardise the advantage per minibatch, per agent slot
+            (TorchRL's standardisation, over every experience).
         loss_critic_type: ``"l2"``, ``"l1"`` or ``"smooth_l1"``.
+        reduction: TorchRL's reduction of the loss terms, ``"mean"``, ``"sum"`` or
+            ``"none"`` (per-sample terms, e.g. for
+            :func:`~rlhc.objectives.weighting.learner_weighted_loss`, which wants
+            ``normalize_advantage=False`` too).
 
     Returns:
         A :class:`HierarchicalPPOLoss`; its ``value_estimator`` is a
@@ -398,6 +400,7 @@ def make_ppo_loss(
         # Standardise each agent slot on its own (as TorchRL's MAPPO does), and
         # silence ClipPPOLoss's multi-agent warning.
         normalize_advantage_exclude_dims=(-2,),
+        reduction=reduction,
     )
     loss.set_keys(
         advantage=(group, keys.ADVANTAGE),
@@ -408,6 +411,7 @@ def make_ppo_loss(
         terminated=(group, keys.TERMINATED),
         worker_value=(group, keys.WORKER_VALUE),
         manager_value=(group, keys.MANAGER_VALUE),
+        learner=(group, keys.LEARNER),
     )
     loss.make_value_estimator(
         HierarchicalValueEstimator(

@@ -35,60 +35,6 @@ from rlhc.objectives.functional import (
 )
 
 
-def fuse_at_steps(
-    data: TensorDictBase,
-    worker_value: Tensor,
-    manager_value: Tensor,
-    *,
-    fusion: str,
-    weight: float = 0.5,
-    manager_interval: int = 1,
-    step_count_key: NestedKey = keys.STEP_COUNT,
-    under: tuple[str, ...] = (),
-) -> tuple[Tensor, Tensor]:
-    """Fuse two value tensors at the steps of ``data`` (temporal scaling included).
-
-    With ``manager_interval = k > 1`` the manager is consulted only where the
-    ``step_count`` of ``data`` is a multiple of ``k``; elsewhere ``V_hat = V_w``.
-
-    Args:
-        data: the (root or ``"next"``) data the values belong to; read for
-            ``step_count_key`` only, and only when ``manager_interval > 1``.
-        worker_value: ``V_w`` on that data, ``[*B, n_agents, 1]``.
-        manager_value: ``V_m`` on that data, the same shape.
-        fusion: one of :data:`~rlhc.objectives.functional.FUSIONS`.
-        weight: the manager's weight in ``"weighted"`` fusion.
-        manager_interval: consult the manager every ``k >= 1`` steps.
-        step_count_key: the episode step counter (shared by the agents, ``[*B, 1]``).
-        under: where ``data`` sits in the caller's data, for error messages.
-
-    Returns:
-        ``(fused_value, manager_share)``, as :func:`~rlhc.objectives.functional.fuse_values`.
-
-    Raises:
-        KeyError: ``manager_interval > 1`` and the step counter is missing.
-
-    Examples:
-        >>> from tensordict import TensorDict
-        >>> data = TensorDict({"step_count": torch.tensor([[0], [1]])}, [2])
-        >>> worker, manager = torch.zeros(2, 3, 1), torch.ones(2, 3, 1)
-        >>> fused, share = fuse_at_steps(data, worker, manager, fusion="max", manager_interval=2)
-        >>> fused[:, 0, 0]  # the manager is consulted at step 0 only
-        tensor([1., 0.])
-    """
-    consulted = None
-    if manager_interval > 1:
-        # Temporal scaling: the manager speaks at steps 0, k, 2k, ... of each episode.
-        step_count = require(data, step_count_key, "the episode step counter", under=under)
-        consulted = manager_consulted_mask(
-            broadcast_to_value(step_count, worker_value, data.batch_dims, "step_count"),
-            manager_interval,
-        )
-    return fuse_values(
-        worker_value, manager_value, fusion=fusion, weight=weight, manager_consulted=consulted
-    )
-
-
 class FusedValue(TensorDictModuleBase):
     """The RLHC value network: a worker critic, a manager critic and their fusion.
 
@@ -211,17 +157,56 @@ class FusedValue(TensorDictModuleBase):
         return worker_value, manager_value
 
     def fuse(
-        self, data: TensorDictBase, worker_value: Tensor, manager_value: Tensor
+        self,
+        data: TensorDictBase,
+        worker_value: Tensor,
+        manager_value: Tensor,
+        *,
+        under: tuple[str, ...] = (),
     ) -> tuple[Tensor, Tensor]:
-        """Fuse two value tensors at the steps of ``data`` (see :func:`fuse_at_steps`)."""
-        return fuse_at_steps(
-            data,
+        """Fuse two value tensors at the steps of ``data`` (temporal scaling included).
+
+        With ``manager_interval = k > 1`` the manager is consulted only where the
+        ``step_count`` of ``data`` is a multiple of ``k``; elsewhere ``V_hat = V_w``.
+        The estimator fuses through here, and so does the loss for its explained variance.
+
+        Args:
+            data: the (root or ``"next"``) data the values belong to; read for the step
+                counter only, and only when ``manager_interval > 1``.
+            worker_value: ``V_w`` on that data, ``[*B, n_agents, 1]``.
+            manager_value: ``V_m`` on that data, the same shape.
+            under: where ``data`` sits in the caller's data, for error messages.
+
+        Returns:
+            ``(fused_value, manager_share)``, as :func:`~rlhc.objectives.functional.fuse_values`.
+
+        Raises:
+            KeyError: ``manager_interval > 1`` and the step counter is missing.
+
+        Examples:
+            >>> from tensordict import TensorDict
+            >>> worker = TensorDictModule(torch.nn.Linear(3, 1), ["obs"], ["worker_value"])
+            >>> manager = TensorDictModule(torch.nn.Linear(5, 1), ["mobs"], ["manager_value"])
+            >>> fusion = FusedValue(worker, manager, fusion="max", manager_interval=2)
+            >>> data = TensorDict({"step_count": torch.tensor([[0], [1]])}, [2])
+            >>> fused, share = fusion.fuse(data, torch.zeros(2, 3, 1), torch.ones(2, 3, 1))
+            >>> fused[:, 0, 0]  # the manager is consulted at step 0 only
+            tensor([1., 0.])
+        """
+        consulted = None
+        if self.manager_interval > 1:
+            # Temporal scaling: the manager speaks at steps 0, k, 2k, ... of each episode.
+            step_count = require(data, self.step_count_key, "the episode step counter", under=under)
+            consulted = manager_consulted_mask(
+                broadcast_to_value(step_count, worker_value, data.batch_dims, "step_count"),
+                self.manager_interval,
+            )
+        return fuse_values(
             worker_value,
             manager_value,
             fusion=self.fusion,
             weight=self.weight,
-            manager_interval=self.manager_interval,
-            step_count_key=self.step_count_key,
+            manager_consulted=consulted,
         )
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -424,6 +409,8 @@ class HierarchicalValueEstimator(GAE):
         self.weight = float(weight)
         self.manager_interval = manager_interval
         self.group = group
+        # (what it was built from, the FusedValue): a tuple, so not registered either.
+        self._fused: tuple[tuple[object, ...], FusedValue] | None = None
         if group is not None:
             defaults = self.default_keys()
             self.set_keys(**{name: (group, getattr(defaults, name)) for name in self.GROUP_KEYS})
@@ -450,26 +437,40 @@ class HierarchicalValueEstimator(GAE):
     def fused_value(self) -> FusedValue:
         """The two critics and their fusion as one TensorDict module, on this estimator's keys.
 
-        Built anew at each call (from the current :attr:`tensor_keys`), never
-        registered as a submodule.
+        One per estimator: built at the first call and again only after the keys
+        (:meth:`set_keys`) or the fusion settings changed; never registered as a
+        submodule.
 
         Returns:
             A :class:`FusedValue` writing ``worker_value``, ``manager_value``, ``value``
             and ``manager_selected``; usable as the ``value_network`` of TorchRL's GAE.
         """
         tk = self.tensor_keys
-        return FusedValue(
-            self.worker_value_network,
-            self.manager_value_network,
-            fusion=self.fusion,
-            weight=self.weight,
-            manager_interval=self.manager_interval,
-            worker_value_key=tk.worker_value,
-            manager_value_key=tk.manager_value,
-            value_key=tk.value,
-            manager_selected_key=tk.manager_selected,
-            step_count_key=tk.step_count,
+        built_from = (
+            tk.worker_value,
+            tk.manager_value,
+            tk.value,
+            tk.manager_selected,
+            tk.step_count,
+            self.fusion,
+            self.weight,
+            self.manager_interval,
         )
+        if self._fused is None or self._fused[0] != built_from:
+            fused_value = FusedValue(
+                self.worker_value_network,
+                self.manager_value_network,
+                fusion=self.fusion,
+                weight=self.weight,
+                manager_interval=self.manager_interval,
+                worker_value_key=tk.worker_value,
+                manager_value_key=tk.manager_value,
+                value_key=tk.value,
+                manager_selected_key=tk.manager_selected,
+                step_count_key=tk.step_count,
+            )
+            self._fused = (built_from, fused_value)
+        return self._fused[1]
 
     @property
     def in_keys(self) -> list[NestedKey]:
@@ -581,31 +582,6 @@ class HierarchicalValueEstimator(GAE):
         tensordict.set(tk.advantage, gae_inputs.get(tk.advantage))
         tensordict.set(tk.value_target, gae_inputs.get(tk.value_target))
         return tensordict
-
-    def fuse(
-        self, tensordict: TensorDictBase, worker_value: Tensor, manager_value: Tensor
-    ) -> tuple[Tensor, Tensor]:
-        """Fuse two value tensors at the steps of ``tensordict``, as :meth:`forward` does.
-
-        Used by the loss to report the explained variance of the *current* fused value.
-
-        Args:
-            tensordict: the data the values belong to (read for ``step_count`` only).
-            worker_value: ``V_w`` on that data.
-            manager_value: ``V_m`` on that data.
-
-        Returns:
-            ``(fused_value, manager_share)``, as :func:`~rlhc.objectives.functional.fuse_values`.
-        """
-        return fuse_at_steps(
-            tensordict,
-            worker_value,
-            manager_value,
-            fusion=self.fusion,
-            weight=self.weight,
-            manager_interval=self.manager_interval,
-            step_count_key=self.tensor_keys.step_count,
-        )
 
     def value_estimate(
         self,

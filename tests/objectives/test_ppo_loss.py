@@ -152,7 +152,7 @@ def test_short_ppo_update_lowers_both_critic_losses(networks: Callable) -> None:
         assert last[key] < 0.8 * first[key], (key, first[key].item(), last[key].item())
 
 
-def test_attaching_an_estimator_by_assignment(networks: Callable) -> None:
+def test_attaching_an_estimator_with_make_value_estimator(networks: Callable) -> None:
     actor, worker, manager = networks()
     loss = HierarchicalPPOLoss(actor, worker, manager)
     loss.set_keys(
@@ -168,7 +168,7 @@ def test_attaching_an_estimator_by_assignment(networks: Callable) -> None:
     estimator = HierarchicalValueEstimator(
         worker_value_network=worker, manager_value_network=manager, gamma=0.9, lmbda=0.9
     )
-    loss.value_estimator = estimator  # keys are forwarded from the loss
+    assert loss.make_value_estimator(estimator) is loss  # keys are forwarded from the loss
     assert loss.value_estimator is estimator
     assert estimator.tensor_keys.reward == (GROUP, "reward")
     assert estimator.tensor_keys.worker_value == (GROUP, "worker_value")

@@ -7,6 +7,7 @@ from collections.abc import Callable
 
 import pytest
 import torch
+from reference_gae import hierarchical_gae
 from rlhc_synthetic import GROUP, constant_critic, loop_gae, make_batch
 from tensordict import TensorDict
 from tensordict.nn import TensorDictModule
@@ -94,6 +95,43 @@ def test_max_fusion_matches_plain_loop(networks: Callable) -> None:
     assert_close(data[GROUP, "manager_selected"], manager_wins.float(), rtol=0, atol=0)
     # Random critics: each wins somewhere, so the max really mixes the two.
     assert 0 < manager_wins.float().mean() < 1
+
+
+@pytest.mark.parametrize("interval", [1, 3])
+@pytest.mark.parametrize("fusion", FUSIONS)
+def test_the_estimator_equals_the_functional_reference(
+    networks: Callable, fusion: str, interval: int
+) -> None:
+    # The reference (tests/objectives/reference_gae.py) fuses and runs GAE on plain
+    # tensors; it is itself checked against the plain loop and closed forms.
+    _, worker, manager = networks()
+    data = make_batch(batch=(2, 3), steps=9, p_terminated=0.2, p_truncated=0.2, seed=4)
+    estimator(worker, manager, fusion=fusion, weight=0.3, manager_interval=interval)(data)
+    nxt = data["next"]
+
+    def consulted(step_count: torch.Tensor) -> torch.Tensor:
+        return (step_count % interval == 0).unsqueeze(-2).expand_as(data[GROUP, "worker_value"])
+
+    reference = hierarchical_gae(
+        0.99,
+        0.95,
+        worker_value=data[GROUP, "worker_value"],
+        manager_value=data[GROUP, "manager_value"],
+        next_worker_value=nxt[GROUP, "worker_value"],
+        next_manager_value=nxt[GROUP, "manager_value"],
+        reward=nxt[GROUP, "reward"],
+        done=nxt[GROUP, "done"],
+        terminated=nxt[GROUP, "terminated"],
+        time_dim=2,
+        fusion=fusion,
+        weight=0.3,
+        manager_consulted=consulted(data["step_count"]),
+        next_manager_consulted=consulted(nxt["step_count"]),
+    )
+    assert_close(data[GROUP, "state_value"], reference.fused_value, rtol=0, atol=0)
+    assert_close(data[GROUP, "manager_selected"], reference.manager_share, rtol=0, atol=0)
+    assert_close(data[GROUP, "advantage"], reference.advantage)
+    assert_close(data[GROUP, "value_target"], reference.value_target)
 
 
 def toy(

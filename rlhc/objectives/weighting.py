@@ -1,0 +1,181 @@
+"""PPO under the learner weight: the experiences of a league world's opponents add nothing.
+
+In a league world (:mod:`rlhc.league`) one team plays the learning policy and the
+other an opponent; both teams' experiences are collected, but only the learner's may
+train it. Each experience carries a weight, 1 where the learning policy chose the
+action (``(g, "learner")``) and 0 elsewhere (all ones without a league), and
+
+- every PPO term of :data:`~rlhc.objectives.ppo.LOSS_KEYS` is the mean of its
+  per-sample values under that weight (:func:`weighted_mean`);
+- the advantage is standardised per agent slot, as TorchRL's MAPPO does, over the
+  experiences of weight 1 only (:func:`standardise_advantage`).
+
+TorchRL's own ``reduction`` and ``normalize_advantage`` average every sample alike, so
+:func:`learner_weighted_loss` runs a loss built for per-sample terms
+(``make_ppo_loss(..., reduction="none", normalize_advantage=False)``) and does both.
+Its ``reduce`` argument sums a partial statistic over the processes that hold the rest
+of a minibatch (data-parallel training): the terms are then means over the whole
+minibatch, and the gradients summed over the processes are those of one process.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
+
+import torch
+from tensordict import TensorDictBase
+from tensordict.utils import NestedKey
+from torch import Tensor
+
+from rlhc.objectives.ppo import LOSS_KEYS, HierarchicalPPOLoss
+
+#: Sums a tensor over the processes sharing a minibatch (the identity for one process).
+Reduce = Callable[[Tensor], Tensor]
+
+#: Loss-output diagnostics reported per group (those the loss writes).
+DIAGNOSTICS: tuple[str, ...] = (
+    "loss_objective",
+    "loss_critic",
+    "loss_worker_critic",
+    "loss_manager_critic",
+    "loss_entropy",
+    "entropy",
+    "kl_approx",
+    "clip_fraction",
+    "explained_variance",
+)
+
+
+def _identity(tensor: Tensor) -> Tensor:
+    return tensor
+
+
+def learner_weight(data: TensorDictBase, learner_key: NestedKey, like: Tensor) -> Tensor:
+    """``float [B, n_g]``: 1 where the learning policy chose the action, else 0.
+
+    Args:
+        data: a (mini)batch of batch size ``[B]`` (or ``[*B]``).
+        learner_key: the group's ``(g, "learner")`` flag; absent without a league.
+        like: a per-agent entry of the group (``[*B, n_g, ...]``), for the shape.
+
+    Returns:
+        All ones without the flag; otherwise the flag as floats.
+
+    Examples:
+        >>> from tensordict import TensorDict
+        >>> data = TensorDict({"g": {"learner": torch.tensor([[[True], [False]]])}}, [1])
+        >>> learner_weight(data, ("g", "learner"), torch.zeros(1, 2, 1))
+        tensor([[1., 0.]])
+    """
+    learner = data.get(learner_key, None)
+    if learner is None:
+        return torch.ones(like.shape[: data.ndim + 1])
+    return learner.reshape(*learner.shape[: data.ndim + 1]).float()
+
+
+def weighted_mean(value: Tensor, weight: Tensor, total: Tensor | None = None) -> Tensor:
+    """The mean of ``value`` (a per-sample ``[B, n_g]`` term, or a scalar) under ``weight``.
+
+    Args:
+        value: per-sample values (any shape with ``weight.numel()`` elements), or a
+            scalar, returned as it is.
+        weight: ``[B, n_g]`` weights.
+        total: replaces ``weight.sum()`` as the denominator: the weight of the whole
+            minibatch when this process holds only its share (data-parallel).
+
+    Examples:
+        >>> weighted_mean(torch.tensor([[1.0, 5.0], [3.0, 7.0]]), torch.tensor([[1.0, 0.0], [1.0, 0.0]]))
+        tensor(2.)
+    """
+    if value.dim() == 0:
+        return value
+    denominator = weight.sum() if total is None else total
+    return (value.reshape(weight.shape) * weight).sum() / denominator.clamp_min(1.0)
+
+
+def standardise_advantage(
+    data: TensorDictBase,
+    advantage_key: NestedKey,
+    weight: Tensor,
+    reduce: Reduce | None = None,
+) -> None:
+    """Standardise the advantage of a minibatch in place, per agent slot, under ``weight``.
+
+    Args:
+        data: the minibatch ``[B]``; its advantage ``[B, n_g, 1]`` is overwritten.
+        advantage_key: the group's ``(g, "advantage")``.
+        weight: ``[B, n_g]``; only experiences of weight 1 count in the statistics.
+        reduce: sums a partial statistic over the processes holding the rest of the
+            minibatch; ``None`` for one process.
+    """
+    reduce = reduce or _identity
+    advantage = data[advantage_key]
+    shaped = advantage.reshape(weight.shape)
+    sums = reduce(torch.stack([weight.sum(dim=0), (shaped * weight).sum(dim=0)]))
+    count = sums[0].clamp_min(1.0)
+    mean = sums[1] / count
+    var = reduce((((shaped - mean) ** 2) * weight).sum(dim=0)) / count
+    standard = (shaped - mean) / (var.sqrt() + 1e-8)
+    data.set(advantage_key, standard.reshape(advantage.shape))
+
+
+class WeightedLoss(NamedTuple):
+    """What :func:`learner_weighted_loss` returns.
+
+    Attributes:
+        total: the sum of the :data:`~rlhc.objectives.ppo.LOSS_KEYS` terms (with gradient).
+        diagnostics: :data:`DIAGNOSTICS` the loss wrote, each averaged under the learner
+            weight of this process's share only.
+    """
+
+    total: Tensor
+    diagnostics: dict[str, float]
+
+
+def learner_weighted_loss(
+    loss: HierarchicalPPOLoss,
+    minibatch: TensorDictBase,
+    *,
+    normalize_advantage: bool,
+    reduce: Reduce | None = None,
+) -> WeightedLoss:
+    """One group's PPO loss on a minibatch, every term averaged under the learner weight.
+
+    Args:
+        loss: the group's loss, built for per-sample terms (``reduction="none"``) and
+            without TorchRL's standardisation (``normalize_advantage=False``).
+        minibatch: a flat minibatch ``[B]`` holding the advantage and value target
+            (estimated once per batch); its advantage is standardised in place when
+            ``normalize_advantage``.
+        normalize_advantage: standardise the advantage per agent slot over the
+            learner's experiences (:func:`standardise_advantage`).
+        reduce: sums over the processes sharing the minibatch (data-parallel);
+            ``None`` for one process.
+
+    Returns:
+        A :class:`WeightedLoss`.
+
+    Raises:
+        ValueError: the loss reduces or standardises on its own.
+    """
+    if loss.reduction != "none" or loss.normalize_advantage:
+        raise ValueError(
+            "learner_weighted_loss needs per-sample terms: build the loss with "
+            "reduction='none' and normalize_advantage=False (got reduction="
+            f"{loss.reduction!r}, normalize_advantage={loss.normalize_advantage})"
+        )
+    keys = loss.tensor_keys
+    weight = learner_weight(minibatch, keys.learner, minibatch[keys.advantage])
+    # The whole minibatch's weight: each term is a mean over all its processes.
+    total_weight = reduce(weight.sum()) if reduce is not None else None
+    if normalize_advantage:
+        standardise_advantage(minibatch, keys.advantage, weight, reduce)
+    out = loss(minibatch)
+    total = sum(weighted_mean(out[term], weight, total_weight) for term in LOSS_KEYS)
+    diagnostics = {
+        key: weighted_mean(out[key].detach().float(), weight).item()
+        for key in DIAGNOSTICS
+        if key in out
+    }
+    return WeightedLoss(total, diagnostics)  # type: ignore[arg-type]
