@@ -9,6 +9,7 @@ paper's Table 3 values live only in ``conf/table3/<env>.yaml`` (the schemas mark
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from hydra.core.config_store import ConfigStore
@@ -20,6 +21,8 @@ from rlhc.shaping import ShapingConfig
 
 #: ``resume=auto``: continue from the run directory's own checkpoint, if it holds one.
 RESUME_AUTO = "auto"
+#: The Hydra configs: ``conf/`` next to the package.
+CONFIG_DIR = Path(__file__).resolve().parents[1] / "conf"
 
 
 def measured_in(unit: str, default: Any = MISSING) -> Any:
@@ -226,3 +229,4 @@ def register_configs() -> None:
     cs.store(group="model", name="model_schema", node=ModelConfig)
     cs.store(group="logger", name="logger_schema", node=LoggerConfig)
     cs.store(group="league", name="league_schema", node=LeagueConfig)
+
