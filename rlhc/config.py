@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from hydra.core.config_store import ConfigStore
-from omegaconf import MISSING
+from omegaconf import MISSING, OmegaConf
 
 from rlhc.league import LeagueConfig
 from rlhc.modules.config import NetworkConfig
@@ -230,3 +230,26 @@ def register_configs() -> None:
     cs.store(group="logger", name="logger_schema", node=LoggerConfig)
     cs.store(group="league", name="league_schema", node=LeagueConfig)
 
+
+def compose_config(*overrides: str) -> TrainConfig:
+    """The training config ``python -m rlhc.run <overrides>`` composes, checked by the schemas.
+
+    For scripts, notebooks and examples. Hydra's own node is left out, and so are the
+    entry point's checks (:func:`rlhc.validation.validate`) and ``resume=auto``'s
+    resolution.
+
+    Raises:
+        hydra.errors.HydraException, omegaconf.errors.OmegaConfBaseException: an
+            override that does not compose.
+
+    Examples:
+        >>> cfg = compose_config("env=soccer", "experiment=smoke")
+        >>> cfg.env.name, cfg.critic.fusion, cfg.algo.max_steps
+        ('soccer', 'max', 512)
+    """
+    from hydra import compose, initialize_config_dir
+
+    register_configs()
+    with initialize_config_dir(config_dir=str(CONFIG_DIR), version_base="1.3"):
+        cfg = compose(config_name="train", overrides=list(overrides))
+    return OmegaConf.to_object(cfg)  # type: ignore[return-value]
