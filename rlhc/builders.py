@@ -206,11 +206,12 @@ def group_names(env: EnvBase) -> list[str]:
 def network_config(cfg: TrainConfig) -> NetworkConfig:
     """The network shape of ``cfg.model`` (the same for every group).
 
-        Examples:
-            >>> from rlhc.config import TrainConfig
-    from rlhc.errors import ConfigError
-            >>> network_config(TrainConfig()).shared_trunk
-            False
+    Examples:
+        >>> from rlhc.config import ModelConfig, TrainConfig
+        >>> model = ModelConfig(num_layers=2, hidden_size=64, activation="silu", action_dist="gaussian")
+        >>> net = network_config(TrainConfig(model=model))
+        >>> net.hidden_size, net.action_dist, net.shared_trunk
+        (64, 'gaussian', False)
     """
     # Every field of the network schema, so that a setting added to it reaches the nets.
     return NetworkConfig(

@@ -59,15 +59,12 @@ from rlhc.cli.cleanup import (
 from rlhc.cli.hydra_hooks import USER_ERRORS, PreflightFailed
 from rlhc.cli.report import shown, user_errors_in_one_line
 from rlhc.cli.start import forget_checked, take_checked
-from rlhc.config import register_configs
+from rlhc.config import CONFIG_DIR, register_configs
 from rlhc.distributed import broadcast_object, launched_rank, launched_size, setup, shutdown
 from rlhc.interrupt import TrainingInterrupted
 from rlhc.trainer import Trainer
 
 PROGRAM = "rlhc.run"
-#: An absolute path: Hydra reads a relative one as a package when this file runs as the
-#: module ``rlhc.run`` (see the end of the file), and ``conf`` is not a package.
-CONFIG_DIR = str(Path(__file__).resolve().parents[1] / "conf")
 #: ``hydra.output_subdir`` that writes no ``.hydra/`` (Hydra's null).
 NO_OUTPUT = "null"
 
@@ -75,7 +72,9 @@ log = logging.getLogger(__name__)
 register_configs()
 
 
-@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")
+# An absolute path: Hydra reads a relative one as a package when this file runs as the
+# module ``rlhc.run`` (see the end of the file), and ``conf`` is not a package.
+@hydra.main(version_base="1.3", config_path=str(CONFIG_DIR), config_name="train")
 def main(cfg: DictConfig) -> float:
     """Train one run; returns the last logged mean cumulative reward (for sweepers).
 

@@ -1,8 +1,9 @@
-"""What ``conf/train.yaml`` names: the ``Preflight`` callback and two resolvers.
+"""What ``conf/train.yaml`` and ``conf/evaluate.yaml`` name: callbacks and two resolvers.
 
-| name in ``conf/train.yaml`` | here | answers |
+| name in ``conf/<config>.yaml`` | here | answers |
 |---|---|---|
-| ``hydra.callbacks.preflight`` | :class:`Preflight` | checks a single run before Hydra creates its directory |
+| ``hydra.callbacks.preflight`` of ``train`` | :class:`Preflight` | checks a single run before Hydra creates its directory |
+| ``hydra.callbacks.preflight`` of ``evaluate`` | :class:`EvaluatePreflight` | checks a single evaluation (values, players) before Hydra creates its directory |
 | ``${rlhc.run_dir:…}`` (``hydra.run.dir``) | :func:`run_directory` | a resume continues in the resumed run's directory |
 | ``${rlhc.output_subdir:…}`` (``hydra.output_subdir``) | :func:`output_subdir` | a multirun job that will not train gets no ``.hydra/`` |
 
@@ -23,15 +24,17 @@ from omegaconf import DictConfig, OmegaConf
 
 from rlhc.checkpoint import ResumeError, run_dir_of
 from rlhc.cli.report import HYDRA_USER_ERRORS
-from rlhc.cli.start import checked
+from rlhc.cli.start import checked, task_config
 from rlhc.config import RESUME_AUTO
+from rlhc.evaluation.commands import check_evaluation
+from rlhc.evaluation.config import EvaluateConfig
 
 #: Errors a user fixes by changing the command line of ``rlhc.run``.
 USER_ERRORS: tuple[type[BaseException], ...] = (*HYDRA_USER_ERRORS, ResumeError)
 
 
 class PreflightFailed(BaseException):
-    """A user error found by :class:`Preflight`, carried past Hydra to :func:`rlhc.run.cli`.
+    """A user error found by a callback, carried past Hydra to the entry point's ``cli``.
 
     A ``BaseException``: Hydra turns a callback's ``Exception`` into a warning and runs
     the job anyway.
@@ -64,6 +67,23 @@ class Preflight(Callback):
         if message is not None:
             print(message, flush=True)
             sys.exit(0)
+
+
+class EvaluatePreflight(Callback):
+    """Hydra callback: check a single evaluation before Hydra creates its directory.
+
+    Configured in ``conf/evaluate.yaml`` (``hydra.callbacks``): the values and every
+    player (:func:`rlhc.evaluation.commands.check_evaluation`). A user error reaches
+    :func:`rlhc.evaluate.cli` as :class:`PreflightFailed`, with nothing written.
+    """
+
+    def on_run_start(self, config: DictConfig, **kwargs: Any) -> None:
+        HydraConfig.instance().set_config(config)
+        try:
+            eval_cfg: EvaluateConfig = task_config(config)
+            check_evaluation(eval_cfg)
+        except HYDRA_USER_ERRORS as error:
+            raise PreflightFailed(error) from error
 
 
 def run_directory(resume: str | None, default: str) -> str:
@@ -117,6 +137,7 @@ register_resolvers()
 
 __all__ = [
     "USER_ERRORS",
+    "EvaluatePreflight",
     "Preflight",
     "PreflightFailed",
     "output_subdir",

@@ -56,12 +56,13 @@ class Start:
 _latest: tuple[str, Start] | None = None
 
 
-def task_config(config: DictConfig) -> TrainConfig:
-    """The training config of a composed config, without its ``hydra`` node if it has one."""
+def task_config(config: DictConfig) -> Any:
+    """The task's config object (its schema's dataclass, e.g. :class:`TrainConfig`) of a
+    composed config, without its ``hydra`` node if it has one."""
     task = copy.deepcopy(config)
     with read_write(task), open_dict(task):
         task.pop("hydra", None)
-    return OmegaConf.to_object(task)  # type: ignore[return-value]
+    return OmegaConf.to_object(task)
 
 
 def resolve_resume(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
@@ -130,7 +131,8 @@ def checked(config: DictConfig, run_dir: Path, *, fresh: bool = False) -> Start:
         OmegaConfBaseException: a value of the wrong type (the schema's check).
     """
     global _latest
-    cfg = resolve_resume(task_config(config), run_dir)
+    train_cfg: TrainConfig = task_config(config)
+    cfg = resolve_resume(train_cfg, run_dir)
     key = os.path.abspath(run_dir)
     if not fresh and _latest is not None and _latest[0] == key and _latest[1].cfg == cfg:
         return _latest[1]
