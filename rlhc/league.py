@@ -15,10 +15,11 @@ configurable share of the worlds of the training env puts the learning team agai
 
 In a league world the learner plays one team (worlds alternate the side); only its
 agents' experiences train: :class:`LeaguePolicy` marks each agent ``(g, "learner")``
-and the trainer weights every loss term by that mask, so an opponent's experiences
-carry no gradient and no statistics. Each world draws its snapshot when an episode
-starts, so an episode is played against one opponent, whose result (win, draw, loss)
-updates the Elo ratings (:mod:`rlhc.evaluation.elo`) of the learner and that opponent.
+and every loss term is weighted by that mask (:mod:`rlhc.objectives.weighting`), so
+an opponent's experiences carry no gradient and no statistics. Each world draws its
+snapshot when an episode starts, so an episode is played against one opponent, whose
+result (win, draw, loss) updates the Elo ratings (:mod:`rlhc.evaluation.elo`) of the
+learner and that opponent.
 The pool, the ratings and the draws' generator are saved in checkpoints.
 
 The worlds' kinds are fixed for a run: ``round(share × worlds)`` of each kind (largest
@@ -28,7 +29,7 @@ remainder), in the order self, snapshot, scripted, random.
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -36,8 +37,10 @@ import numpy as np
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
+from torchrl.envs import EnvBase
 
-from rlhc.envs.keys import ACTION, OBSERVATION, STEP_COUNT, TEAM
+from rlhc.envs.keys import ACTION, DONE, LEARNER, NEXT, OBSERVATION, SCORING_TEAM, STEP_COUNT, TEAM
+from rlhc.envs.torchrl_adapter import BatchedGameEnv, batched_game_env
 from rlhc.evaluation.elo import INITIAL_RATING, K_FACTOR, elo_update, expected_score
 from rlhc.evaluation.teams import RandomPolicy, ScriptedPolicy, TeamPolicy
 
@@ -46,8 +49,6 @@ SAMPLING = ("uniform", "elo")
 #: Root keys the league policy writes at every step (stored by the collector).
 OPPONENT = "league_opponent"
 LEARNER_TEAM = "league_learner_team"
-#: Per-group key: whether the learning policy chose this agent's action.
-LEARNER = "learner"
 #: Opponent ids of the built-in teams (snapshots count up from 0; self-play is -1).
 SELF_ID, SCRIPTED_ID, RANDOM_ID = -1, -2, -3
 
@@ -194,6 +195,17 @@ class League:
                 )
             self.results.append((opponent, score))
 
+    def record_batch(self, batch: TensorDictBase, gather: Callable[[Any], list[Any]]) -> None:
+        """:meth:`record` the episodes that ended in a collected ``batch``.
+
+        Args:
+            batch: collected by :class:`LeaguePolicy`.
+            gather: every process's value in rank order (``lambda v: [v]`` for one
+                process): each process records every process's results.
+        """
+        opponents, scores = zip(*gather(episode_results(batch)), strict=True)
+        self.record(np.concatenate(opponents), np.concatenate(scores))
+
     def metrics(self) -> dict[str, float]:
         """Ratings and the learner's mean score per opponent kind since the last call."""
         out = {
@@ -235,6 +247,25 @@ class League:
         self.rng.bit_generator.state = state["rng"]
 
 
+def episode_results(batch: TensorDictBase) -> tuple[np.ndarray, np.ndarray]:
+    """The episodes that ended in a collected ``batch``: their opponents and scores.
+
+    Args:
+        batch: collected by :class:`LeaguePolicy` (``[N, T]``).
+
+    Returns:
+        ``(opponent ids, learner scores)``, one entry per ended episode (in a self-play
+        world too: :meth:`League.record` skips those); a score is 1 for a win, 0.5 for
+        a draw (no one scored), 0 for a loss.
+    """
+    done = batch[NEXT, DONE].squeeze(-1)
+    opponent = batch[OPPONENT].squeeze(-1)[done].numpy()
+    learner_team = batch[LEARNER_TEAM].squeeze(-1)[done].numpy()
+    scoring = batch[NEXT, SCORING_TEAM].squeeze(-1)[done].numpy()
+    scores = np.where(scoring < 0, 0.5, (scoring == learner_team).astype(float))
+    return opponent, scores
+
+
 class LeaguePolicy(TensorDictModuleBase):
     """The collection policy: the learner everywhere, opponents where the league says.
 
@@ -250,28 +281,35 @@ class LeaguePolicy(TensorDictModuleBase):
             :class:`~rlhc.envs.torchrl_adapter.BatchedGameEnv`): the scripted team reads
             its game; snapshots see the observations the learner sees.
         make_actor: builds an empty actor of a group (to load snapshot weights into).
+
+    Raises:
+        TypeError: ``env`` is not (a transformed) :class:`~rlhc.envs.torchrl_adapter.BatchedGameEnv`.
     """
 
     def __init__(
         self,
         learner: TensorDictModuleBase,
         league: League,
-        env: Any,
-        make_actor: Any,
+        env: EnvBase,
+        make_actor: Callable[[str], TensorDictModuleBase],
     ) -> None:
-        # Imported here: the opponents' module reads checkpoints through the builders,
-        # which read this module's config schema.
         super().__init__()
+        game_env = batched_game_env(env)
+        if game_env is None:
+            raise TypeError(
+                f"a league needs the batched game env of rlhc.envs.make_env (the scripted "
+                f"team reads its game), got {type(env).__name__}"
+            )
         self.learner = learner
         self.league = league
-        self.base_env = env.base_env
-        self.groups = [spec.name for spec in self.base_env.game.groups]
+        self.game_env: BatchedGameEnv = game_env
+        self.groups = game_env.group_names
         self.in_keys = list(learner.in_keys) + [(g, TEAM) for g in self.groups] + [STEP_COUNT]
         self.out_keys = (
             list(learner.out_keys) + [(g, LEARNER) for g in self.groups] + [OPPONENT, LEARNER_TEAM]
         )
-        self.scripted: TeamPolicy = ScriptedPolicy(self.base_env)
-        self.random: TeamPolicy = RandomPolicy(self.base_env)
+        self.scripted: TeamPolicy = ScriptedPolicy(game_env)
+        self.random: TeamPolicy = RandomPolicy(game_env)
         self.frozen = {g: make_actor(g).requires_grad_(False).eval() for g in self.groups}
         self._loaded: dict[str, int] = {}
 
@@ -323,8 +361,8 @@ class LeaguePolicy(TensorDictModuleBase):
     def _raw(self, tensordict: TensorDictBase) -> TensorDictBase:
         """The game's current, unnormalised observations (what the scripted team reads)."""
         raw = tensordict.empty()
-        for group, observed in self.base_env.game.observe().items():
-            raw.set((group, OBSERVATION), torch.from_numpy(observed.observation))
+        for group, observation in self.game_env.worker_observations().items():
+            raw.set((group, OBSERVATION), observation)
         return raw
 
     def _snapshot_actions(

@@ -27,11 +27,14 @@ This is the only module of :mod:`rlhc.envs` that imports torch.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 import numpy as np
 import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
-from torchrl.envs import EnvBase
+from torchrl.envs import EnvBase, TransformedEnv
 
 from rlhc.envs.base import BatchedGame, ContinuousAction, DiscreteAction
 from rlhc.envs.keys import (
@@ -77,6 +80,44 @@ class BatchedGameEnv(EnvBase):
             for spec in game.groups
         }
         self._make_specs()
+
+    # --- the game's state, for trainers and opponents -----------------------------------
+    @property
+    def group_names(self) -> list[str]:
+        """The game's agent groups, in its order (e.g. ``["striker", "goalie"]``)."""
+        return [spec.name for spec in self.game.groups]
+
+    @property
+    def game_rng_state(self) -> Mapping[str, Any]:
+        """The state of the game's random generator (numpy ``bit_generator.state``).
+
+        What a checkpoint stores so that a resumed run draws the same resets.
+
+        Examples:
+            >>> from rlhc.envs import make_game
+            >>> env = BatchedGameEnv(make_game("soccer", num_envs=2, seed=0))
+            >>> state = env.game_rng_state
+            >>> first = env.reset()
+            >>> env.set_game_rng_state(state)
+            >>> bool((env.reset()["striker", "observation"] == first["striker", "observation"]).all())
+            True
+        """
+        return self.game.rng.bit_generator.state
+
+    def set_game_rng_state(self, state: Mapping[str, Any]) -> None:
+        """Restore a state of :attr:`game_rng_state`."""
+        self.game.rng.bit_generator.state = state
+
+    def worker_observations(self) -> dict[str, torch.Tensor]:
+        """Every group's current worker observations as the game computes them.
+
+        ``group -> float32 [N, n_g, d_w]``, untouched by any transform of the env
+        (e.g. observation normalisation): what a scripted team reads.
+        """
+        return {
+            group: torch.from_numpy(observed.observation)
+            for group, observed in self.game.observe().items()
+        }
 
     # --- specs -------------------------------------------------------------------------
     def _make_specs(self) -> None:
@@ -208,3 +249,17 @@ class BatchedGameEnv(EnvBase):
             )
         result = TensorDict(out, batch_size=(n,))
         return result if self.device == torch.device("cpu") else result.to(self.device)
+
+
+def batched_game_env(env: EnvBase) -> BatchedGameEnv | None:
+    """``env`` itself, or the env under its transforms, if that is a :class:`BatchedGameEnv`.
+
+    ``None`` for an env of another kind (e.g. TorchRL's ``PettingZooWrapper`` route).
+
+    Examples:
+        >>> from rlhc.envs import make_env
+        >>> batched_game_env(make_env("tennis", num_envs=1, seed=0)).group_names
+        ['racket']
+    """
+    base = env.base_env if isinstance(env, TransformedEnv) else env
+    return base if isinstance(base, BatchedGameEnv) else None
