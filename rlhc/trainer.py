@@ -127,7 +127,9 @@ def schedules(algo: PPOConfig, frames: int) -> tuple[float, float, float]:
 
     Examples:
         >>> from rlhc.config import PPOConfig
-        >>> schedules(PPOConfig(max_steps=100, lr=1e-3, entropy_coef=0.01), 50)
+        >>> algo = PPOConfig(max_steps=100, lr=1e-3, entropy_coef=0.01, clip_epsilon=0.2,
+        ...                  anneal_lr=True, anneal_entropy_coef=True, anneal_clip_epsilon=True)
+        >>> schedules(algo, 50)
         (0.0005, 0.005005, 0.15000000000000002)
     """
     progress = min(1.0, frames / algo.max_steps)
