@@ -25,7 +25,7 @@ import signal
 import sys
 import time
 from collections import defaultdict
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -73,8 +73,6 @@ from rlhc.distributed import (
 from rlhc.envs import make_env
 from rlhc.envs.base import BatchedGame
 from rlhc.envs.keys import (
-    ACTION_LOG_PROB,
-    ADVANTAGE,
     DONE,
     EPISODE_REWARD,
     INFO,
@@ -89,26 +87,13 @@ from rlhc.envs.keys import (
 )
 from rlhc.final_team import save_team
 from rlhc.interrupt import StopSignals, TrainingInterrupted
-from rlhc.league import LEARNER, LEARNER_TEAM, OPPONENT, League, LeaguePolicy
+from rlhc.league import LEARNER_TEAM, OPPONENT, League, LeaguePolicy
 from rlhc.loggers import MetricLogger, ProgressLines
 from rlhc.modules import make_actor
-from rlhc.objectives import LOSS_KEYS
+from rlhc.objectives import cut_trajectories, learner_weighted_loss
 from rlhc.validation import validate
 
 log = logging.getLogger(__name__)
-
-#: Loss-output diagnostics averaged over minibatches and logged per group.
-LOSS_DIAGNOSTICS = (
-    "loss_objective",
-    "loss_critic",
-    "loss_worker_critic",
-    "loss_manager_critic",
-    "loss_entropy",
-    "entropy",
-    "kl_approx",
-    "clip_fraction",
-    "explained_variance",
-)
 
 
 def seed_everything(seed: int) -> None:
@@ -145,59 +130,6 @@ def schedules(algo: PPOConfig, frames: int) -> tuple[float, float, float]:
     return lr, entropy_coef, clip_epsilon
 
 
-def learner_weight(data: TensorDictBase, group: str) -> torch.Tensor:
-    """``float [B, n_g]``: 1 where the learning policy chose the action, else 0.
-
-    All ones without a league; in a league world the opponent team's agents weigh 0,
-    so their experiences carry no gradient and no statistics.
-    """
-    learner = data.get((group, LEARNER), None)
-    if learner is None:
-        return torch.ones(data[group, ACTION_LOG_PROB].shape[: data.ndim + 1])
-    return learner.reshape(*learner.shape[: data.ndim + 1]).float()
-
-
-def weighted_mean(
-    value: torch.Tensor, weight: torch.Tensor, total: torch.Tensor | None = None
-) -> torch.Tensor:
-    """The mean of ``value`` (a per-sample ``[B, n_g]`` term, or a scalar) under ``weight``.
-
-    ``total`` replaces ``weight.sum()`` as the denominator: the weight of the whole
-    minibatch when this process holds only its share (data-parallel).
-    """
-    if value.dim() == 0:
-        return value
-    denominator = weight.sum() if total is None else total
-    return (value.reshape(weight.shape) * weight).sum() / denominator.clamp_min(1.0)
-
-
-def _identity(tensor: torch.Tensor) -> torch.Tensor:
-    return tensor
-
-
-def standardise_advantage(
-    data: TensorDictBase,
-    group: str,
-    weight: torch.Tensor,
-    reduce: Callable[[torch.Tensor], torch.Tensor] = _identity,
-) -> None:
-    """Standardise ``(group, "advantage")`` of a minibatch in place, per agent slot.
-
-    Over the experiences of weight 1 only (all of them without a league), as TorchRL's
-    MAPPO does per slot; the losses are built with their own normalisation off.
-    ``reduce`` sums a partial statistic over the processes that hold the rest of the
-    minibatch (data-parallel: :func:`~rlhc.distributed.all_reduce_sum`).
-    """
-    advantage = data[group, ADVANTAGE]
-    shaped = advantage.reshape(weight.shape)
-    sums = reduce(torch.stack([weight.sum(dim=0), (shaped * weight).sum(dim=0)]))
-    count = sums[0].clamp_min(1.0)
-    mean = sums[1] / count
-    var = reduce((((shaped - mean) ** 2) * weight).sum(dim=0)) / count
-    standard = (shaped - mean) / (var.sqrt() + 1e-8)
-    data.set((group, ADVANTAGE), standard.reshape(advantage.shape))
-
-
 def config_container(cfg: TrainConfig) -> dict[str, Any]:
     """``cfg`` as the plain nested dict a checkpoint stores."""
     return OmegaConf.to_container(OmegaConf.structured(cfg), resolve=True)  # type: ignore[return-value]
@@ -220,26 +152,6 @@ def check_resumable(cfg: TrainConfig, state: Mapping[str, Any]) -> None:
             f"resume={cfg.resume!r}: {state['path']} was trained with other settings, and a "
             f"resume cannot change them (checkpoint -> now): {'; '.join(differing)}"
         )
-
-
-def cut_trajectories(batch: TensorDictBase, groups: list[str], horizon: int) -> None:
-    """Cut every world's trajectory each ``horizon`` decisions of ``batch`` ``[N, T]``.
-
-    ML-Agents cuts an agent's trajectory every ``time_horizon`` decisions and bootstraps
-    there. A cut is a ``done`` that is not ``terminated`` (set in place on each group's
-    ``("next", g, "done")``): GAE stops accumulating at it and bootstraps from the next
-    observation's value. Nothing changes when ``T <= horizon``: the end of a batch is a
-    cut anyway.
-    """
-    steps = batch.shape[-1]
-    if steps <= horizon:
-        return
-    cut = torch.zeros(steps, dtype=torch.bool)
-    cut[horizon - 1 :: horizon] = True
-    for group in groups:
-        done = batch[NEXT, group, DONE]
-        shape = (1, steps) + (1,) * (done.dim() - 2)
-        batch[NEXT, group, DONE] = done | cut.view(shape)
 
 
 class Trainer:
@@ -550,26 +462,24 @@ class Trainer:
     ) -> torch.Tensor:
         """The summed PPO loss of every group on a minibatch (advantages already in it).
 
-        Every term is averaged under :func:`learner_weight`: an experience that an
+        Every term is averaged under the learner weight
+        (:func:`~rlhc.objectives.learner_weighted_loss`): an experience that an
         opponent chose (a league world) adds nothing. Diagnostics go to ``stats`` (this
         process's share only, data-parallel; :meth:`_summarise` averages the processes).
         """
-        shared = self.processes.data_parallel
-        reduce = all_reduce_sum if shared else _identity
+        reduce = all_reduce_sum if self.processes.data_parallel else None
         total = torch.zeros(())
         for group, loss in self.losses.items():
-            weight = learner_weight(minibatch, group)
-            # The whole minibatch's weight: each term is a mean over all its processes.
-            weights = reduce(weight.sum()) if shared else None
-            if self.cfg.algo.normalize_advantage:
-                standardise_advantage(minibatch, group, weight, reduce)
-            out = loss(minibatch)
-            total = total + sum(weighted_mean(out[term], weight, weights) for term in LOSS_KEYS)
+            weighted = learner_weighted_loss(
+                loss,
+                minibatch,
+                normalize_advantage=self.cfg.algo.normalize_advantage,
+                reduce=reduce,
+            )
+            total = total + weighted.total
             if stats is not None:
-                for key in LOSS_DIAGNOSTICS:
-                    if key in out:
-                        value = weighted_mean(out[key].detach().float(), weight)
-                        stats[f"{group}/{key}"].append(value.item())
+                for key, value in weighted.diagnostics.items():
+                    stats[f"{group}/{key}"].append(value)
         return total
 
     def _record_league(self, batch: TensorDictBase) -> None:

@@ -21,7 +21,8 @@ import torch.distributed as dist
 from configs import load_smoke
 
 from rlhc.distributed import Processes, broadcast_object, gather, setup, shutdown
-from rlhc.trainer import Trainer, cut_trajectories
+from rlhc.objectives import cut_trajectories
+from rlhc.trainer import Trainer
 
 
 def main(out: Path, overrides: list[str]) -> None:

@@ -18,8 +18,8 @@ from tensordict.nn import TensorDictModule
 from rlhc.builders import Layout
 from rlhc.config import PPOConfig
 from rlhc.errors import ConfigError
-from rlhc.objectives import HierarchicalValueEstimator
-from rlhc.trainer import Trainer, cut_trajectories, schedules
+from rlhc.objectives import HierarchicalValueEstimator, cut_trajectories
+from rlhc.trainer import Trainer, schedules
 from rlhc.validation import validate
 
 
