@@ -64,6 +64,22 @@ EVAL_WORLDS = 32
 RESERVED_KEYS = ("env", "critic", "seed", "algo.max_steps", "resume", "hydra.run.dir")
 LOGGING = ("logger.backends=[csv]", "logger.progress=false")
 
+#: The tennis probes' schedule: constant lr and entropy coefficient (a run can be read
+#: at any budget and continued), 10 M court-decisions, a checkpoint every 250 K.
+#: (Order matters: a resumed run's recorded overrides must match.)
+PROBE_SCHEDULE = (
+    "algo.anneal_lr=false",
+    "algo.anneal_entropy_coef=false",
+    "algo.max_steps=10000000",
+    "checkpoint_freq=250000",
+)
+#: A state-free Gaussian policy from scale 1 with its mean head at 0.01 (ML-Agents 0.5).
+GAUSSIAN_POLICY = (
+    "model.action_dist=gaussian",
+    "model.initial_action_scale=1.0",
+    "model.head_init_scale=0.01",
+)
+
 #: env -> preset name -> overrides of the training config (after ``env=`` and ``critic=``).
 PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
     "tennis": {
@@ -74,48 +90,20 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         "pipeline": ("parallel=pipeline",),
         # Learning probe: a 4x entropy bonus, no decay of lr and beta, 10 M court-decisions
         # (the paper preset's noise shrinks and its lr reaches 0 while hits still climb).
-        "probe_entropy": (
-            "algo.entropy_coef=0.02",
-            "algo.anneal_lr=false",
-            "algo.anneal_entropy_coef=false",
-            "algo.max_steps=10000000",
-            "checkpoint_freq=250000",
-        ),
+        "probe_entropy": ("algo.entropy_coef=0.02", *PROBE_SCHEDULE),
         # Learning probe: a Gaussian policy (state-free learned scale from 1 in action units,
         # mean head at 0.01, no squashing), the paper's beta, no decay, 10 M. Its scale is
         # 3x ML-Agents' (no pre_clip_range): see probe_mlagents.
-        "probe_gaussian": (
-            "model.action_dist=gaussian",
-            "model.initial_action_scale=1.0",
-            "model.head_init_scale=0.01",
-            "algo.anneal_lr=false",
-            "algo.anneal_entropy_coef=false",
-            "algo.max_steps=10000000",
-            "checkpoint_freq=250000",
-        ),
+        "probe_gaussian": (*GAUSSIAN_POLICY, *PROBE_SCHEDULE),
         # Learning probe: ML-Agents 0.5's Gaussian with its scaling (actions clip(u, -3, 3)/3,
         # so the initial scale is a third of the action range), otherwise probe_gaussian.
-        "probe_mlagents": (
-            "model.action_dist=gaussian",
-            "model.initial_action_scale=1.0",
-            "model.head_init_scale=0.01",
-            "model.pre_clip_range=3.0",
-            "algo.anneal_lr=false",
-            "algo.anneal_entropy_coef=false",
-            "algo.max_steps=10000000",
-            "checkpoint_freq=250000",
-        ),
+        "probe_mlagents": (*GAUSSIAN_POLICY, "model.pre_clip_range=3.0", *PROBE_SCHEDULE),
         # Learning probe: probe_gaussian in a league: half the courts self-play, 30 %
         # against the scripted team (which returns the ball: many more balls to play),
         # 20 % against past selves.
         "probe_gaussian_league": (
-            "model.action_dist=gaussian",
-            "model.initial_action_scale=1.0",
-            "model.head_init_scale=0.01",
-            "algo.anneal_lr=false",
-            "algo.anneal_entropy_coef=false",
-            "algo.max_steps=10000000",
-            "checkpoint_freq=250000",
+            *GAUSSIAN_POLICY,
+            *PROBE_SCHEDULE,
             "league=mixed",
             "league.snapshot=0.2",
             "league.scripted=0.3",
