@@ -8,6 +8,7 @@ from collections.abc import Sequence
 
 import torch
 
+from rlhc.cli.report import user_errors_in_one_line
 from rlhc.evaluation.diagnostics import diagnose
 from rlhc.final_team import load_team
 
@@ -24,12 +25,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
-    try:
+    # The one-line report of every entry point (HYDRA_FULL_ERROR=1: the traceback).
+    with user_errors_in_one_line("rlhc.evaluation.diagnostics", (FileNotFoundError, ValueError)):
         result = diagnose(
             load_team(args.team), worlds=args.worlds, decisions=args.decisions, seed=args.seed
         )
-    except (FileNotFoundError, ValueError) as error:
-        parser.exit(2, f"rlhc.evaluation.diagnostics: error: {error}\n")
     print(json.dumps(result, indent=2))
     return 0
 
