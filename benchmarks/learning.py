@@ -109,6 +109,16 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
             "league.scripted=0.3",
             "league.random=0",
         ),
+        # Learning probes: probe_gaussian at 3.3x its learning rate (its KL per update
+        # stays at 0.002-0.004 and its clip fraction under 6 %), then that with twice the
+        # epochs (more gradient steps per collected experience).
+        "probe_gaussian_lr": (*GAUSSIAN_POLICY, *PROBE_SCHEDULE, "algo.lr=1e-3"),
+        "probe_gaussian_lr_epochs": (
+            *GAUSSIAN_POLICY,
+            *PROBE_SCHEDULE,
+            "algo.lr=1e-3",
+            "algo.epochs=6",
+        ),
     },
     "soccer": {
         "paper": (),  # Table 3 as composed by conf/table3/soccer.yaml
