@@ -30,6 +30,7 @@ else
 	$(PY) -m torch.distributed.run --standalone --nproc_per_node=$(PROCS) -m rlhc.run parallel=pipeline
 endif
 
+# tests/ and the examples in rlhc/'s docstrings (pyproject.toml: testpaths, --doctest-modules).
 # pytest exits 5 when it collects no tests: not a failure.
 test: $(STAMP)
 	$(PY) -m pytest -n 2 -q; status=$$?; if [ $$status -eq 5 ]; then exit 0; fi; exit $$status

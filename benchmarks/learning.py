@@ -47,6 +47,7 @@ from omegaconf import OmegaConf
 from benchmarks.reporting.learning import OPPONENTS, means_over_seeds, plot_curves, table
 from benchmarks.reporting.summary import code_version
 from rlhc.checkpoint import CHECKPOINT_DIR, load_checkpoint, seed_everything
+from rlhc.evaluation.diagnostics import DIAGNOSTICS, diagnose
 from rlhc.evaluation.matches import evaluate_against, make_match_env
 from rlhc.evaluation.opponents import make_team_policy
 from rlhc.runs import METRICS_FILE, read_metrics
@@ -62,6 +63,22 @@ EVAL_WORLDS = 32
 RESERVED_KEYS = ("env", "critic", "seed", "algo.max_steps", "resume", "hydra.run.dir")
 LOGGING = ("logger.backends=[csv]", "logger.progress=false")
 
+#: The tennis probes' schedule: constant lr and entropy coefficient (a run can be read
+#: at any budget and continued), 10 M court-decisions, a checkpoint every 250 K.
+#: (Order matters: a resumed run's recorded overrides must match.)
+PROBE_SCHEDULE = (
+    "algo.anneal_lr=false",
+    "algo.anneal_entropy_coef=false",
+    "algo.max_steps=10000000",
+    "checkpoint_freq=250000",
+)
+#: A state-free Gaussian policy from scale 1 with its mean head at 0.01 (ML-Agents 0.5).
+GAUSSIAN_POLICY = (
+    "model.action_dist=gaussian",
+    "model.initial_action_scale=1.0",
+    "model.head_init_scale=0.01",
+)
+
 #: env -> preset name -> overrides of the training config (after ``env=`` and ``critic=``).
 PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
     "tennis": {
@@ -72,23 +89,34 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         "pipeline": ("parallel=pipeline",),
         # Learning probe: a 4x entropy bonus, no decay of lr and beta, 10 M court-decisions
         # (the paper preset's noise shrinks and its lr reaches 0 while hits still climb).
-        "probe_entropy": (
-            "algo.entropy_coef=0.02",
-            "algo.anneal_lr=false",
-            "algo.anneal_entropy_coef=false",
-            "algo.max_steps=10000000",
-            "checkpoint_freq=250000",
+        "probe_entropy": ("algo.entropy_coef=0.02", *PROBE_SCHEDULE),
+        # Learning probe: a Gaussian policy (state-free learned scale from 1 in action units,
+        # mean head at 0.01, no squashing), the paper's beta, no decay, 10 M. Its scale is
+        # 3x ML-Agents' (no pre_clip_range): see probe_mlagents.
+        "probe_gaussian": (*GAUSSIAN_POLICY, *PROBE_SCHEDULE),
+        # Learning probe: ML-Agents 0.5's Gaussian with its scaling (actions clip(u, -3, 3)/3,
+        # so the initial scale is a third of the action range), otherwise probe_gaussian.
+        "probe_mlagents": (*GAUSSIAN_POLICY, "model.pre_clip_range=3.0", *PROBE_SCHEDULE),
+        # Learning probe: probe_gaussian in a league: half the courts self-play, 30 %
+        # against the scripted team (which returns the ball: many more balls to play),
+        # 20 % against past selves.
+        "probe_gaussian_league": (
+            *GAUSSIAN_POLICY,
+            *PROBE_SCHEDULE,
+            "league=mixed",
+            "league.snapshot=0.2",
+            "league.scripted=0.3",
+            "league.random=0",
         ),
-        # Learning probe: ML-Agents 0.5's Gaussian policy (state-free learned scale from 1,
-        # mean head at 0.01, no squashing), the paper's beta, no decay, 10 M.
-        "probe_gaussian": (
-            "model.action_dist=gaussian",
-            "model.initial_action_scale=1.0",
-            "model.head_init_scale=0.01",
-            "algo.anneal_lr=false",
-            "algo.anneal_entropy_coef=false",
-            "algo.max_steps=10000000",
-            "checkpoint_freq=250000",
+        # Learning probes: probe_gaussian at 3.3x its learning rate (its KL per update
+        # stays at 0.002-0.004 and its clip fraction under 6 %), then that with twice the
+        # epochs (more gradient steps per collected experience).
+        "probe_gaussian_lr": (*GAUSSIAN_POLICY, *PROBE_SCHEDULE, "algo.lr=1e-3"),
+        "probe_gaussian_lr_epochs": (
+            *GAUSSIAN_POLICY,
+            *PROBE_SCHEDULE,
+            "algo.lr=1e-3",
+            "algo.epochs=6",
         ),
     },
     "soccer": {
@@ -327,6 +355,12 @@ def record(run: LearningRun, args: argparse.Namespace) -> dict[str, Any]:
             "commands": evaluate_cli,
         },
         **{f"vs_{opponent}": summaries[opponent] for opponent in OPPONENTS},
+        # What the team does beyond who wins (python -m rlhc.evaluation.diagnostics).
+        **(
+            {"play_diagnostics": diagnose(state, worlds=EVAL_WORLDS, decisions=1000, seed=0)}
+            if run.env in DIAGNOSTICS
+            else {}
+        ),
         "benchmark_command": benchmark_command(args),
     }
 

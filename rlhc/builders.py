@@ -6,6 +6,7 @@ exactly the networks that were trained.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from collections.abc import Mapping
@@ -207,16 +208,18 @@ def network_config(cfg: TrainConfig) -> NetworkConfig:
     """The network shape of ``cfg.model`` (the same for every group).
 
     Examples:
-        >>> from rlhc.config import TrainConfig
-        >>> network_config(TrainConfig()).shared_trunk
-        False
+        >>> from rlhc.config import ModelConfig, TrainConfig
+        >>> model = ModelConfig(num_layers=2, hidden_size=64, activation="silu", action_dist="gaussian")
+        >>> net = network_config(TrainConfig(model=model))
+        >>> net.hidden_size, net.action_dist, net.shared_trunk
+        (64, 'gaussian', False)
     """
+    # Every field of the network schema, so that a setting added to it reaches the nets.
     return NetworkConfig(
-        num_layers=cfg.model.num_layers,
-        hidden_size=cfg.model.hidden_size,
-        activation=cfg.model.activation,
-        initial_action_scale=cfg.model.initial_action_scale,
-        shared_trunk=cfg.model.shared_trunk,
+        **{
+            field.name: getattr(cfg.model, field.name)
+            for field in dataclasses.fields(NetworkConfig)
+        }
     )
 
 

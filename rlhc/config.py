@@ -9,10 +9,11 @@ paper's Table 3 values live only in ``conf/table3/<env>.yaml`` (the schemas mark
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from hydra.core.config_store import ConfigStore
-from omegaconf import MISSING
+from omegaconf import MISSING, OmegaConf
 
 from rlhc.league import LeagueConfig
 from rlhc.modules.config import NetworkConfig
@@ -20,6 +21,8 @@ from rlhc.shaping import ShapingConfig
 
 #: ``resume=auto``: continue from the run directory's own checkpoint, if it holds one.
 RESUME_AUTO = "auto"
+#: The Hydra configs: ``conf/`` next to the package.
+CONFIG_DIR = Path(__file__).resolve().parents[1] / "conf"
 
 
 def measured_in(unit: str, default: Any = MISSING) -> Any:
@@ -125,7 +128,9 @@ def schedules(algo: PPOConfig, frames: int) -> tuple[float, float, float]:
 
     Examples:
         >>> from rlhc.config import PPOConfig
-        >>> schedules(PPOConfig(max_steps=100, lr=1e-3, entropy_coef=0.01, clip_epsilon=0.2), 50)
+        >>> algo = PPOConfig(max_steps=100, lr=1e-3, entropy_coef=0.01, clip_epsilon=0.2,
+        ...                  anneal_lr=True, anneal_entropy_coef=True, anneal_clip_epsilon=True)
+        >>> schedules(algo, 50)
         (0.0005, 0.005005, 0.15000000000000002)
     """
     progress = min(1.0, frames / algo.max_steps)
@@ -251,3 +256,27 @@ def register_configs() -> None:
     cs.store(group="model", name="model_schema", node=ModelConfig)
     cs.store(group="logger", name="logger_schema", node=LoggerConfig)
     cs.store(group="league", name="league_schema", node=LeagueConfig)
+
+
+def compose_config(*overrides: str) -> TrainConfig:
+    """The training config ``python -m rlhc.run <overrides>`` composes, checked by the schemas.
+
+    For scripts, notebooks and examples. Hydra's own node is left out, and so are the
+    entry point's checks (:func:`rlhc.validation.validate`) and ``resume=auto``'s
+    resolution.
+
+    Raises:
+        hydra.errors.HydraException, omegaconf.errors.OmegaConfBaseException: an
+            override that does not compose.
+
+    Examples:
+        >>> cfg = compose_config("env=soccer", "experiment=smoke")
+        >>> cfg.env.name, cfg.critic.fusion, cfg.algo.max_steps
+        ('soccer', 'max', 512)
+    """
+    from hydra import compose, initialize_config_dir
+
+    register_configs()
+    with initialize_config_dir(config_dir=str(CONFIG_DIR), version_base="1.3"):
+        cfg = compose(config_name="train", overrides=list(overrides))
+    return OmegaConf.to_object(cfg)  # type: ignore[return-value]

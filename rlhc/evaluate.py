@@ -1,10 +1,17 @@
 """Entry point: head-to-head matches and Elo ratings between checkpoints and built-ins.
 
-Wiring only: compose and validate the config, seed, hand over to
+Wiring only: compose and check the config and the players, seed, hand over to
 :mod:`rlhc.evaluation.commands`. Outputs go to
 ``outputs/evaluate/<env>/<mode>/<time>/`` (``results.json``, ``matches.csv``; in
 ``mode=elo``: ``elo.json``, ``elo.csv``, ``pairings.csv``); with ``video.enabled=true`` a
 match video (``match.gif``; in ``mode=elo`` one per pairing under ``videos/``).
+
+A user error (a bad value, a player that is neither a built-in team nor a checkpoint
+of this game, a Hydra override error) prints ``rlhc.evaluate: error: <one line>`` and
+exits with code 2, before any match is played and, for a single evaluation, before
+Hydra creates its directory (the ``EvaluatePreflight`` callback of
+``conf/evaluate.yaml``); ``HYDRA_FULL_ERROR=1`` shows the traceback instead
+(:mod:`rlhc.cli.report`).
 
 Examples:
     python -m rlhc.evaluate env=soccer home=outputs/soccer/hierarchical/<time> away=scripted matches=100
@@ -22,18 +29,24 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
 from rlhc.checkpoint import seed_everything
-from rlhc.evaluation.commands import run_elo, run_match
+from rlhc.cli.hydra_hooks import PreflightFailed
+from rlhc.cli.report import HYDRA_USER_ERRORS, user_errors_in_one_line
+from rlhc.config import CONFIG_DIR
+from rlhc.evaluation.commands import check_evaluation, run_elo, run_match
 from rlhc.evaluation.config import EvaluateConfig, register_evaluate_configs
-from rlhc.validation import validate_evaluate
+
+PROGRAM = "rlhc.evaluate"
 
 register_evaluate_configs()
 
 
-@hydra.main(version_base="1.3", config_path="../conf", config_name="evaluate")
+# An absolute path: a relative one is read as a package when this runs as the module
+# ``rlhc.evaluate`` (from :func:`cli`, in tests), and ``conf`` is not a package.
+@hydra.main(version_base="1.3", config_path=str(CONFIG_DIR), config_name="evaluate")
 def main(cfg: DictConfig) -> float:
     """Run one evaluation; returns the home score (``match``) or the best rating (``elo``)."""
     eval_cfg: EvaluateConfig = OmegaConf.to_object(cfg)  # type: ignore[assignment]
-    validate_evaluate(eval_cfg)
+    check_evaluation(eval_cfg)  # again: a multirun's jobs are checked here only
     if eval_cfg.threads > 0:
         torch.set_num_threads(eval_cfg.threads)
     seed_everything(eval_cfg.seed)
@@ -43,5 +56,14 @@ def main(cfg: DictConfig) -> float:
     return float(run_match(eval_cfg, out_dir)["score"])
 
 
+def cli() -> None:
+    """``python -m rlhc.evaluate``: :func:`main`, user errors in one line (exit 2)."""
+    with user_errors_in_one_line(PROGRAM, HYDRA_USER_ERRORS):
+        try:
+            main()
+        except PreflightFailed as failed:
+            raise failed.error from None
+
+
 if __name__ == "__main__":
-    main()
+    cli()

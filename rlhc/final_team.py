@@ -15,10 +15,18 @@ A resume never reads it: :func:`rlhc.checkpoint.checkpoint_candidates` looks onl
 ``checkpoints/step_*.pt`` and ``latest.pt``.
 
 Examples:
-    >>> from rlhc.final_team import load_team  # doctest: +SKIP
-    >>> state = load_team("benchmarks/results/learning/tennis/paper/ppo/seed_3")  # doctest: +SKIP
-    >>> state["frames"], Path(state["path"]).name  # doctest: +SKIP
-    (3600000, 'final_team.pt')
+    A final team is what :data:`TEAM_KEYS` names of a checkpoint (here a stand-in with
+    no weights):
+
+    >>> import tempfile
+    >>> run = Path(tempfile.mkdtemp())
+    >>> checkpoint = {"env": "tennis", "config": {}, "frames": 3_600_000, "actors": {},
+    ...               "env_transform": {}, "optimizer": {}, "rng": {}}
+    >>> save_team(run, checkpoint).name
+    'final_team.pt'
+    >>> state = load_team(run)
+    >>> state["frames"], Path(state["path"]).name, "optimizer" in state
+    (3600000, 'final_team.pt', False)
 """
 
 from __future__ import annotations

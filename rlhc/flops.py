@@ -107,10 +107,8 @@ def network_flops(cfg: TrainConfig, env: EnvBase | None = None) -> dict[str, Gro
         rlhc.builders.ConfigError: ``model.shared_trunk=true`` on continuous actions.
 
     Examples:
-        >>> from omegaconf import OmegaConf
-        >>> from rlhc.config import TrainConfig
-        >>> from rlhc.envs.config import SoccerEnvConfig
-        >>> cfg = OmegaConf.to_object(OmegaConf.structured(TrainConfig(env=SoccerEnvConfig())))
+        >>> from rlhc.config import compose_config
+        >>> cfg = compose_config("env=soccer")
         >>> sorted(network_flops(cfg))
         ['goalie', 'striker']
     """
@@ -150,10 +148,8 @@ def training_flops(cfg: TrainConfig, env: EnvBase | None = None) -> TrainingFlop
         A :class:`TrainingFlops`.
 
     Examples:
-        >>> from omegaconf import OmegaConf
-        >>> from rlhc.config import TrainConfig
-        >>> from rlhc.envs.config import SoccerEnvConfig
-        >>> cfg = OmegaConf.to_object(OmegaConf.structured(TrainConfig(env=SoccerEnvConfig())))
+        >>> from rlhc.config import compose_config
+        >>> cfg = compose_config("env=soccer")
         >>> cost = training_flops(cfg)
         >>> cost.update > cost.collection > 0
         True

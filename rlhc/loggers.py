@@ -6,7 +6,9 @@ rows past the checkpoint's step are dropped, so the curve continues without a ga
 a duplicate. TensorBoard gets the same treatment: a resumed run appends to the run's
 own ``tb/<name>/`` and hides the points past the checkpoint's step (the event files'
 ``purge_step``, which torch's ``SummaryWriter`` takes and TorchRL's
-``TensorboardLogger`` does not pass on).
+``TensorboardLogger`` does not pass on). wandb continues the same run too: its id is
+kept in the run directory's ``wandb_run_id`` file, written at the first start and
+passed back on every resume (``wandb.init(id=…, resume="allow")``).
 
 :class:`ProgressLines` writes a line to the ``logging`` module every tenth of the
 budget; ``rlhc.run``'s Hydra logging sends it to stdout and the run's ``run.log``.
@@ -19,6 +21,7 @@ import datetime
 import math
 import os
 import re
+import secrets
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -30,6 +33,8 @@ from rlhc.validation import WANDB_MODES, check_logger
 
 METRICS_FILE = "metrics.csv"
 TENSORBOARD_DIR = "tb"
+#: The run directory's wandb run id (written at the first start, read on a resume).
+WANDB_RUN_ID_FILE = "wandb_run_id"
 
 
 def wandb_mode(requested: str) -> str:
@@ -45,6 +50,34 @@ def wandb_mode(requested: str) -> str:
         netrc.is_file() and "api.wandb.ai" in netrc.read_text(errors="ignore")
     )
     return "online" if has_key else "offline"
+
+
+def wandb_run_id(run_dir: Path, resume: bool) -> str:
+    """The id of the run directory's wandb run: a new one, or on a resume the kept one.
+
+    A fresh start writes a new id to ``<run_dir>/wandb_run_id``; a resume reads it back
+    (and writes a new one if the run started without wandb), so that wandb continues
+    the run the resumed one logged to, as ``metrics.csv`` and TensorBoard do.
+
+    Args:
+        run_dir: the run's directory.
+        resume: whether this start continues a checkpoint of the run.
+
+    Examples:
+        >>> import tempfile
+        >>> run = Path(tempfile.mkdtemp())
+        >>> first = wandb_run_id(run, resume=False)
+        >>> wandb_run_id(run, resume=True) == first != wandb_run_id(run, resume=False)
+        True
+    """
+    path = run_dir / WANDB_RUN_ID_FILE
+    if resume and path.is_file():
+        kept = path.read_text().strip()
+        if kept:
+            return kept
+    run_id = secrets.token_hex(4)  # wandb's own ids: 8 lowercase letters and digits
+    path.write_text(run_id + "\n")
+    return run_id
 
 
 class CSVMetrics:
@@ -120,7 +153,8 @@ class MetricLogger:
         run_dir: the run's output directory.
         run_name: a name for TensorBoard / wandb.
         config: the resolved run config, recorded by wandb.
-        resume_step: when resuming, the checkpoint's frame count.
+        resume_step: when resuming, the checkpoint's frame count (wandb then continues
+            the run directory's wandb run: :func:`wandb_run_id`).
     """
 
     def __init__(
@@ -147,8 +181,10 @@ class MetricLogger:
                     exp_name=run_name,
                     offline=mode == "offline",
                     save_dir=str(run_dir),
+                    id=wandb_run_id(run_dir, resume=resume_step is not None),
                     project=cfg.wandb_project,
                     config=dict(config or {}),
+                    resume="allow",  # a new id starts a run, a kept one continues it
                 )
 
     def log(self, step: int, metrics: Mapping[str, float]) -> None:

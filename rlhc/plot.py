@@ -7,6 +7,10 @@ configuration's last-10% value of every curve (mean ± t interval over its runs)
 
 Arguments that hold no run (a multirun's ``multirun.yaml``, a directory without
 ``metrics.csv``) are skipped with one warning line, so a shell glob works as written.
+A user error (a path that does not exist, no run directory left, an unreadable
+``metrics.csv``, none of the ``--metrics`` logged, a bad option) prints
+``rlhc.plot: error: <one line>`` and exits with code 2, writing nothing;
+``HYDRA_FULL_ERROR=1`` shows the traceback instead (:mod:`rlhc.cli.report`).
 
 Examples:
     python -m rlhc.plot multirun/2025-01-01_00-00-00 --out docs/images/tennis.png
@@ -19,9 +23,11 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
+from rlhc.cli.report import UsageError, user_errors_in_one_line
 from rlhc.evaluation.stats import t_interval
-from rlhc.plotting import plot_runs
+from rlhc.plotting import plot_groups
 from rlhc.runs import (
     METRICS_FILE,
     PAPER_METRICS,
@@ -32,9 +38,45 @@ from rlhc.runs import (
     split_run_paths,
 )
 
+PROGRAM = "rlhc.plot"
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse's parser, its errors raised as :class:`UsageError` (reported in one line)."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(f"{message} (usage: python -m {PROGRAM} --help)")
+
+
+def fraction(low_open: bool, text: str) -> float:
+    """``text`` as a number in ``[0, 1)`` (``low_open=False``) or ``(0, 1]`` (``True``).
+
+    Examples:
+        >>> fraction(False, "0.8")
+        0.8
+        >>> fraction(True, "0")
+        Traceback (most recent call last):
+        ...
+        argparse.ArgumentTypeError: 0 is not a number in (0, 1]
+    """
+    allowed = "(0, 1]" if low_open else "[0, 1)"
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    inside = 0.0 < value <= 1.0 if low_open else 0.0 <= value < 1.0
+    if not inside:
+        raise argparse.ArgumentTypeError(f"{text} is not a number in {allowed}")
+    return value
+
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog="python -m rlhc.plot", description=__doc__.split("\n")[0])
+    """The command line of ``python -m rlhc.plot``.
+
+    Raises:
+        UsageError: an argument argparse refuses (one line).
+    """
+    parser = ArgumentParser(prog=f"python -m {PROGRAM}", description=__doc__.split("\n")[0])
     parser.add_argument(
         "runs", nargs="+", help="run directories, multirun directories or metrics.csv files"
     )
@@ -43,7 +85,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument(
         "--smoothing",
-        type=float,
+        type=lambda text: fraction(False, text),
         default=0.8,
         help="TensorBoard EMA weight in [0, 1) (default: 0.8)",
     )
@@ -63,7 +105,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument(
         "--final-fraction",
-        type=float,
+        type=lambda text: fraction(True, text),
         default=0.1,
         help="share of each curve averaged for the printed final values (default: 0.1)",
     )
@@ -74,29 +116,38 @@ def main(argv: Sequence[str] | None = None) -> None:
     """Plot and print; paths holding no run (e.g. ``multirun.yaml``) are skipped with a warning.
 
     Raises:
-        SystemExit: a path does not exist, or no run directory remains (one line).
+        UsageError: a path does not exist, no run directory remains, a ``metrics.csv``
+            cannot be read, no run logged any of ``--metrics``, or a bad argument;
+            nothing is written.
     """
     args = parse_args(argv)
     try:
         run_dirs, not_runs = split_run_paths(args.runs)
     except FileNotFoundError as error:
-        raise SystemExit(f"rlhc.plot: error: {error}") from None
+        raise UsageError(str(error)) from None
     if not_runs:
         print(
-            f"rlhc.plot: warning: skipping {len(not_runs)} path(s) with no {METRICS_FILE} "
+            f"{PROGRAM}: warning: skipping {len(not_runs)} path(s) with no {METRICS_FILE} "
             f"at or under them (not run directories): {', '.join(map(str, not_runs))}",
             file=sys.stderr,
         )
     if not run_dirs:
-        raise SystemExit(
-            f"rlhc.plot: error: no run directory (one holding {METRICS_FILE}) at or under "
-            f"{', '.join(args.runs)}"
+        raise UsageError(
+            f"no run directory (one holding {METRICS_FILE}) at or under {', '.join(args.runs)}"
         )
-    titles = {leaf: PAPER_METRICS.get(leaf, leaf) for leaf in args.metrics}
-    out = plot_runs(run_dirs, args.out, args.smoothing, args.group_by, titles)
-    print(f"wrote {out}")
-    runs = load_runs(run_dirs)
+    try:
+        runs = load_runs(run_dirs)
+    except ValueError as error:  # a metrics.csv without rows or unreadable
+        raise UsageError(str(error)) from None
+    if not panel_metrics(runs, args.metrics):
+        raise UsageError(
+            f"none of the runs logged any of --metrics {' '.join(args.metrics)} "
+            f"(at or under {', '.join(args.runs)})"
+        )
     groups = group_runs(runs, args.group_by)
+    titles = {leaf: PAPER_METRICS.get(leaf, leaf) for leaf in args.metrics}
+    out = plot_groups(groups, args.out, args.smoothing, titles)
+    print(f"wrote {out}")
     print(
         f"\nmean of the last {args.final_fraction:.0%} of each curve (± 95% t interval over runs):"
     )
@@ -108,5 +159,11 @@ def main(argv: Sequence[str] | None = None) -> None:
                 print(f"    {label:<40} {ci.mean:+.4f}  [{ci.low:+.4f}, {ci.high:+.4f}]  n={ci.n}")
 
 
+def cli(argv: Sequence[str] | None = None) -> None:
+    """``python -m rlhc.plot``: :func:`main`, user errors in one line (exit 2)."""
+    with user_errors_in_one_line(PROGRAM, (UsageError,)):
+        main(argv)
+
+
 if __name__ == "__main__":
-    main()
+    cli()

@@ -3,8 +3,13 @@
 Runs are read, grouped and averaged by :mod:`rlhc.runs`; this module draws them.
 
 Examples:
-    >>> from rlhc.plotting import plot_runs  # doctest: +SKIP
-    >>> plot_runs(["multirun/2025-01-01_00-00-00"], out="curves.png")  # doctest: +SKIP
+    >>> import tempfile
+    >>> run = Path(tempfile.mkdtemp()) / "run"
+    >>> run.mkdir()
+    >>> metrics = "step,racket/cumulative_reward,episode_length\\n64,0.1,30\\n128,0.2,35\\n"
+    >>> _ = (run / "metrics.csv").write_text(metrics)
+    >>> plot_runs([run], out=run / "curves.png").name
+    'curves.png'
 """
 
 from __future__ import annotations

@@ -18,8 +18,12 @@ per summary, ``step`` = frames) and its composed config (``.hydra/config.yaml``,
 Figures are drawn by :mod:`rlhc.plotting` from what this module reads.
 
 Examples:
-    >>> from rlhc.runs import load_runs, group_runs  # doctest: +SKIP
-    >>> groups = group_runs(load_runs(["multirun/2025-01-01_00-00-00"]))  # doctest: +SKIP
+    Three tiny runs, two seeds of PPO (``critic.fusion=local``) and one of RLHC:
+
+    >>> root = example_runs({("local", 0): 0.2, ("local", 1): 0.4, ("max", 0): 0.3})
+    >>> groups = group_runs(load_runs([root]))
+    >>> {label: [run.path.name for run in runs] for label, runs in groups.items()}
+    {'fusion=local': ['local_0', 'local_1'], 'fusion=max': ['max_0']}
 """
 
 from __future__ import annotations
@@ -80,6 +84,25 @@ class Run:
     @property
     def steps(self) -> np.ndarray:
         return self.columns["step"]
+
+
+def example_runs(rewards: dict[tuple[str, int], float]) -> Path:
+    """Tiny runs for examples: ``(fusion, seed) -> final reward``, in a new temp directory.
+
+    Each run ``<fusion>_<seed>`` holds a ``.hydra/config.yaml`` (``critic.fusion``,
+    ``seed``) and a two-row ``metrics.csv`` (``racket/cumulative_reward`` 0.0 at step
+    64, the reward at step 128).
+    """
+    import tempfile
+
+    root = Path(tempfile.mkdtemp())
+    for (fusion, seed), reward in rewards.items():
+        run = root / f"{fusion}_{seed}"
+        (run / ".hydra").mkdir(parents=True)
+        (run / ".hydra" / "config.yaml").write_text(f"critic:\n  fusion: {fusion}\nseed: {seed}\n")
+        metrics = f"step,racket/cumulative_reward\n64,0.0\n128,{reward}\n"
+        (run / METRICS_FILE).write_text(metrics)
+    return root
 
 
 def split_run_paths(
@@ -334,8 +357,11 @@ def final_values_by_group(
     """:func:`final_values` of the runs under ``paths``, per configuration label.
 
     Examples:
-        >>> by = final_values_by_group(["multirun/x"], "racket/cumulative_reward")  # doctest: +SKIP
-        >>> welch_t_test(by["fusion=max"], by["fusion=local"])  # doctest: +SKIP
+        Two seeds of PPO (``critic.fusion=local``) and one of RLHC, two summaries each:
+
+        >>> root = example_runs({("local", 0): 0.25, ("local", 1): 0.5, ("max", 0): 1.0})
+        >>> final_values_by_group([root], "racket/cumulative_reward")  # the last 10%: step 128
+        {'fusion=local': [0.25, 0.5], 'fusion=max': [1.0]}
     """
     groups = group_runs(load_runs(paths), group_by)
     return {

@@ -1,8 +1,9 @@
 """Running ``python -m rlhc.run`` from tests: in this process (fast) or as a subprocess.
 
-In-process runs call :func:`rlhc.run.cli` with a patched ``sys.argv`` and working
-directory, then undo what Hydra leaves behind (its global instance, the root logger's
-handlers and level, ``HYDRA_FULL_ERROR``), so tests stay independent. A subprocess is
+In-process runs call :func:`rlhc.run.cli` (or another entry point's ``cli``) with a
+patched ``sys.argv`` and working directory, then undo what Hydra leaves behind (its
+global instance, the root logger's handlers and level, ``HYDRA_FULL_ERROR``), so tests
+stay independent. A subprocess is
 needed where the process itself is the subject (signals, exit codes as a shell sees
 them, shell globs).
 """
@@ -15,7 +16,7 @@ import logging
 import os
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -58,16 +59,20 @@ def hydra_cleanup() -> Iterator[None]:
 
 
 def run_in_process(
-    args: list[str], cwd: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    args: list[str],
+    cwd: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    entry: Callable[[], None] = run.cli,
 ) -> Outcome:
-    """``python -m rlhc.run <args>`` in this process, from ``cwd``."""
+    """``python -m rlhc.run <args>`` (or another Hydra ``entry``) in this process, from ``cwd``."""
     monkeypatch.chdir(cwd)
-    monkeypatch.setattr(sys, "argv", ["rlhc/run.py", *args])
+    monkeypatch.setattr(sys, "argv", [f"{entry.__module__.replace('.', '/')}.py", *args])
     capsys.readouterr()
     code = 0
     with hydra_cleanup():
         try:
-            run.cli()
+            entry()
         except SystemExit as stop:
             code = stop.code if isinstance(stop.code, int) else 1
     captured = capsys.readouterr()
@@ -81,10 +86,12 @@ def subprocess_env() -> dict[str, str]:
     return env
 
 
-def run_subprocess(args: list[str], cwd: Path, timeout: float = 300) -> Outcome:
-    """``python -m rlhc.run <args>`` as a child process, from ``cwd``."""
+def run_subprocess(
+    args: list[str], cwd: Path, timeout: float = 300, module: str = "rlhc.run"
+) -> Outcome:
+    """``python -m rlhc.run <args>`` (or another ``module``) as a child process, from ``cwd``."""
     result = subprocess.run(
-        [sys.executable, "-m", "rlhc.run", *args],
+        [sys.executable, "-m", module, *args],
         cwd=cwd,
         env=subprocess_env(),
         capture_output=True,

@@ -9,7 +9,7 @@ import pytest
 from cli_runs import only_child, run_in_process, run_subprocess
 
 from rlhc.builders import ConfigError
-from rlhc.run import one_line
+from rlhc.cli.report import one_line
 
 SMOKE = ["env=tennis", "experiment=smoke"]
 #: A progress line: frames of the budget, speeds, the latest reward, the time left.

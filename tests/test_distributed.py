@@ -21,8 +21,8 @@ from configs import ROOT, load_smoke
 
 from rlhc.builders import ConfigError, Layout
 from rlhc.checkpoint import CHECKPOINT_DIR
+from rlhc.cli.start import preflight
 from rlhc.distributed import Processes
-from rlhc.run import preflight
 from rlhc.validation import PARALLEL_MODES as MODES
 from rlhc.validation import check_parallel as check
 

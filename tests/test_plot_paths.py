@@ -83,9 +83,9 @@ def test_no_run_directory_left_fails_with_one_line(
     sweep: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "curves.png"
-    with pytest.raises(SystemExit) as exit_info:
+    with pytest.raises(plot.UsageError) as error:
         plot.main([str(sweep / "multirun.yaml"), str(sweep / "notes"), "--out", str(out)])
-    message = str(exit_info.value.code)
+    message = str(error.value)
     assert "no run directory" in message and "metrics.csv" in message
     assert str(sweep / "multirun.yaml") in message and "\n" not in message
     assert not out.exists()
@@ -93,6 +93,6 @@ def test_no_run_directory_left_fails_with_one_line(
 
 
 def test_a_path_that_does_not_exist_is_an_error_not_a_skip(sweep: Path, tmp_path: Path) -> None:
-    with pytest.raises(SystemExit, match="typo") as exit_info:
+    with pytest.raises(plot.UsageError, match="typo") as error:
         plot.main([str(sweep / "0_seed=0"), str(sweep / "typo"), "--out", str(tmp_path / "c.png")])
-    assert "\n" not in str(exit_info.value.code)
+    assert "\n" not in str(error.value)

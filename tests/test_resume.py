@@ -9,6 +9,7 @@ from __future__ import annotations
 import shutil
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -23,6 +24,7 @@ from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 from tensordict import TensorDictBase
 
+from rlhc import training_state
 from rlhc.checkpoint import (
     CHECKPOINT_DIR,
     ResumeError,
@@ -30,8 +32,9 @@ from rlhc.checkpoint import (
     load_checkpoint,
     run_dir_of,
 )
+from rlhc.cli import start
+from rlhc.cli.hydra_hooks import run_directory
 from rlhc.config import TrainConfig, register_configs
-from rlhc.run import run_directory
 from rlhc.trainer import Trainer
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
@@ -99,6 +102,35 @@ def test_resume_of_a_run_directory_continues_in_it(
     assert last.endswith(f"results in outputs/tennis/hierarchical/{run.name}")
     log = (run / "run.log").read_text()
     assert log.count("results in") == 2  # appended to, not replaced
+
+
+@pytest.mark.parametrize("multirun", [False, True], ids=["run", "multirun_job"])
+def test_a_resume_loads_its_checkpoint_once(
+    multirun: bool,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # A single run is checked by the Preflight callback, a multirun job by the
+    # rlhc.output_subdir resolver (resume=auto); the job and the trainer reuse that load.
+    run = trained(tmp_path / "sweep" / "job", 64)
+    loads: list[str] = []
+
+    def counted(path: str) -> dict[str, Any]:
+        loads.append(str(path))
+        return load_checkpoint(path)
+
+    monkeypatch.setattr(start, "load_checkpoint", counted)
+    monkeypatch.setattr(training_state, "load_checkpoint", counted)
+    args = [*SMOKE, "algo.max_steps=128"]
+    if multirun:
+        args = ["-m", *args, "resume=auto", "hydra.sweep.dir=sweep", "hydra.sweep.subdir=job"]
+    else:
+        args = [*args, "resume=sweep/job"]
+    resumed = run_in_process(args, tmp_path, monkeypatch, capsys)
+    assert resumed.code == 0, resumed.stderr
+    assert loads == ["sweep/job"]
+    assert steps(run) == [64, 128]
 
 
 def test_resume_of_an_earlier_checkpoint_drops_the_abandoned_branch(

@@ -22,7 +22,8 @@ from omegaconf import OmegaConf
 from test_resume import snapshot
 
 from rlhc.checkpoint import load_checkpoint
-from rlhc.run import remove_if_unused, remove_unused_sweep, run_directory
+from rlhc.cli.cleanup import remove_if_unused, remove_unused_sweep
+from rlhc.cli.hydra_hooks import run_directory
 
 #: What each study is: the game, the critics swept, league, shaping, budget, sweep dir.
 STUDIES = {

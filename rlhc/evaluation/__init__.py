@@ -14,7 +14,9 @@ needs only :mod:`~rlhc.evaluation.stats`) starts quickly.
 
 Examples:
     >>> from rlhc.evaluation import EloTable, wilson_interval
-    >>> from rlhc.evaluation import evaluate_against  # doctest: +SKIP
+    >>> from rlhc.evaluation import evaluate_against  # imports rlhc.evaluation.matches now
+    >>> evaluate_against.__module__
+    'rlhc.evaluation.matches'
 """
 
 from __future__ import annotations

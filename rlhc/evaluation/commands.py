@@ -21,8 +21,9 @@ from rlhc.evaluation.matches import (
     make_match_env,
     play_matches,
 )
-from rlhc.evaluation.opponents import make_team_policy, player_options
+from rlhc.evaluation.opponents import check_players, make_team_policy, player_options
 from rlhc.evaluation.video import file_label, record_match
+from rlhc.validation import validate_evaluate
 
 RESULTS_FILE = "results.json"
 MATCHES_FILE = "matches.csv"
@@ -30,6 +31,32 @@ ELO_FILE = "elo.json"
 STANDINGS_FILE = "elo.csv"
 PAIRINGS_FILE = "pairings.csv"
 VIDEO_DIR = "videos"
+
+
+def player_settings(cfg: EvaluateConfig) -> dict[str, str]:
+    """``setting -> player`` of the players ``cfg.mode`` plays.
+
+    Examples:
+        >>> player_settings(EvaluateConfig(home="scripted", away="random"))
+        {'home': 'scripted', 'away': 'random'}
+        >>> player_settings(EvaluateConfig(mode="elo", players=["scripted", "random"]))
+        {'players[0]': 'scripted', 'players[1]': 'random'}
+    """
+    if cfg.mode == "elo":
+        return {f"players[{i}]": player for i, player in enumerate(cfg.players)}
+    return {"home": cfg.home, "away": cfg.away}
+
+
+def check_evaluation(cfg: EvaluateConfig) -> None:
+    """Check an evaluation before a match is played: its values, then its players.
+
+    Raises:
+        ConfigError: naming the setting, its value and what is wrong
+            (:func:`rlhc.validation.validate_evaluate`,
+            :func:`rlhc.evaluation.opponents.check_players`).
+    """
+    validate_evaluate(cfg)
+    check_players(player_settings(cfg), cfg.env.name)
 
 
 def play_series(cfg: EvaluateConfig, home: str, away: str) -> MatchResult:

@@ -162,13 +162,29 @@ class MatchResult:
         ]
 
 
-def _route(
+def route_actions(
     tensordict: TensorDictBase,
     home: dict[str, torch.Tensor],
     away: dict[str, torch.Tensor],
     home_side: torch.Tensor,
 ) -> None:
-    """Write each agent's action from the policy that controls its team, in place."""
+    """Write each agent's action from the policy that controls its team, in place.
+
+    Args:
+        tensordict: the env's current TensorDict ``[K]``; its ``(g, "team")`` entries
+            say each agent's team, and ``(g, "action")`` is written.
+        home: the home policy's actions of every agent, ``{group: [K, n_g, ...]}``.
+        away: the away policy's, likewise.
+        home_side: ``int [K]``, the team (0 or 1) the home policy plays in each world.
+
+    Examples:
+        >>> from tensordict import TensorDict
+        >>> td = TensorDict({("g", "team"): torch.tensor([[[0], [1]]])}, [1])
+        >>> home, away = {"g": torch.tensor([[5, 5]])}, {"g": torch.tensor([[7, 7]])}
+        >>> route_actions(td, home, away, torch.tensor([1]))
+        >>> td["g", "action"].tolist()
+        [[7, 5]]
+    """
     for group, home_action in home.items():
         team = tensordict[group, TEAM].squeeze(-1)  # [K, n_g]
         is_home = team == home_side.view(-1, 1)
@@ -232,7 +248,7 @@ def play_matches(
     with torch.no_grad(), set_exploration_type(exploration):
         while (match_of_world < matches).any():
             side = torch.from_numpy(home_side[np.minimum(match_of_world, matches - 1)])
-            _route(tensordict, home(tensordict), away(tensordict), side)
+            route_actions(tensordict, home(tensordict), away(tensordict), side)
             tensordict = env.step(tensordict)
             scoring = tensordict[NEXT, SCORING_TEAM].view(k).numpy()
             done = tensordict[NEXT, DONE].view(k).numpy()

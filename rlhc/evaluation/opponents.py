@@ -14,11 +14,13 @@ The built-in teams live in :mod:`rlhc.evaluation.teams` and are re-exported here
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from rlhc.envs.keys import RANDOM, SCRIPTED
 from rlhc.envs.torchrl_adapter import BatchedGameEnv
+from rlhc.errors import ConfigError
 from rlhc.evaluation.policies import observation_options, restore_policy
 from rlhc.evaluation.teams import RandomPolicy, ScriptedPolicy, TeamPolicy
 from rlhc.final_team import load_team
@@ -70,6 +72,46 @@ def player_options(specs: list[str], env_name: str) -> dict[str, Any]:
     return agreed
 
 
+def check_players(players: Mapping[str, str], env_name: str) -> None:
+    """Refuse, before a match is played, a player that cannot play ``env_name``.
+
+    Every checkpoint player is loaded (:func:`load_policy_checkpoint`): it must exist,
+    be an rlhc checkpoint or final team, have been trained on ``env_name``, and agree
+    with the other checkpoints on the options that shape observations.
+
+    Args:
+        players: ``setting -> player spec``, e.g. ``{"home": "scripted", "away": path}``
+            or ``{"players[0]": …}``: the setting names the player in the error.
+        env_name: the game the evaluation plays.
+
+    Raises:
+        ConfigError: naming the setting, its value and what is wrong, in one line.
+
+    Examples:
+        >>> check_players({"home": "scripted", "away": "random"}, "soccer")
+        >>> check_players({"home": "scriptd"}, "soccer")
+        Traceback (most recent call last):
+        ...
+        rlhc.errors.ConfigError: home='scriptd' is neither a built-in team (random, scripted) nor an existing checkpoint file or run directory
+    """
+    for setting, spec in players.items():
+        if is_built_in(spec):
+            continue
+        if not Path(spec).expanduser().exists():
+            raise ConfigError(
+                f"{setting}={spec!r} is neither a built-in team ({', '.join(BUILT_IN)}) "
+                "nor an existing checkpoint file or run directory"
+            )
+        try:
+            load_policy_checkpoint(spec, env_name)
+        except (FileNotFoundError, ValueError) as error:
+            raise ConfigError(f"{setting}={spec!r}: {error}") from None
+    try:
+        player_options(list(players.values()), env_name)
+    except ValueError as error:
+        raise ConfigError(str(error)) from None
+
+
 def make_team_policy(spec: str, env: BatchedGameEnv) -> TeamPolicy:
     """The team policy named ``spec`` (``random``, ``scripted`` or a checkpoint path).
 
@@ -100,6 +142,7 @@ __all__ = [
     "RandomPolicy",
     "ScriptedPolicy",
     "TeamPolicy",
+    "check_players",
     "is_built_in",
     "load_policy_checkpoint",
     "make_team_policy",

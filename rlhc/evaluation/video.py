@@ -116,7 +116,11 @@ def record_match(
         The file written, the match record and the number of frames.
 
     Examples:
-        >>> record_match("soccer", "scripted", "random", "match.gif", max_frames=50)  # doctest: +SKIP
+        >>> import tempfile
+        >>> out = Path(tempfile.mkdtemp()) / "match.gif"
+        >>> written, result, frames = record_match("soccer", "scripted", "random", out, max_frames=4)
+        >>> written == out, frames
+        (True, 4)
     """
     if home_side not in (0, 1):
         raise ValueError(f"home_side must be 0 or 1, got {home_side}")

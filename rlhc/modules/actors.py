@@ -4,7 +4,7 @@
 |---|---|---|
 | ``Bounded`` ``[..., n_g, size]`` (tennis), ``action_dist=tanh_normal`` | loc, scale (``NormalParamExtractor``; the scale is ``cfg.initial_action_scale`` for a zero output) | ``TanhNormal`` squashed into the spec's bounds |
 | the same, ``action_dist=tanh_normal_bounded`` | the same | ``TanhNormal`` with the pre-tanh mean bounded to ``cfg.loc_bound`` |
-| the same, ``action_dist=gaussian`` | loc; a learned log scale per action dimension, shared by every state and agent (``AddStateIndependentNormalScale``) | ``IndependentNormal``, unsquashed: the env clips the sample |
+| the same, ``action_dist=gaussian`` | loc; a learned log scale per action dimension, shared by every state and agent (``AddStateIndependentNormalScale``); both divided by ``cfg.pre_clip_range`` | ``IndependentNormal``, unsquashed: the env clips the sample |
 | ``Categorical`` ``[..., n_g]`` (soccer) | logits | ``torch.distributions.Categorical`` (integer actions, as the spec) |
 
 Both write ``(g, "action")`` and its log-probability ``(g, "action_log_prob")``. With
@@ -14,10 +14,10 @@ Both write ``(g, "action")`` and its log-probability ``(g, "action_log_prob")``.
 
 from __future__ import annotations
 
-import torch
 import math
 from typing import Any
 
+import torch
 from tensordict.nn import (
     AddStateIndependentNormalScale,
     NormalParamExtractor,
@@ -55,6 +55,18 @@ def _scale_head(mlp: MultiAgentMLP, factor: float) -> MultiAgentMLP:
     return mlp
 
 
+class _Rescale(nn.Module):
+    """``(loc, scale) -> (loc / r, scale / r)``: a Normal of ``u`` as one of ``u / r``."""
+
+    def __init__(self, divisor: float) -> None:
+        super().__init__()
+        self.divisor = divisor
+
+    def forward(self, params: tuple[torch.Tensor, torch.Tensor]) -> tuple[torch.Tensor, ...]:
+        # nn.Sequential hands the previous module's (loc, scale) over as one tuple.
+        return tuple(param / self.divisor for param in params)
+
+
 def _continuous_head(
     n_inputs: int, size: int, n_agents: int, cfg: NetworkConfig
 ) -> tuple[nn.Module, type, dict[str, Any]]:
@@ -64,7 +76,10 @@ def _continuous_head(
         scale = AddStateIndependentNormalScale(
             size, scale_mapping="exp", init_value=math.log(cfg.initial_action_scale)
         )
-        return nn.Sequential(mlp, scale), IndependentNormal, {}
+        head: list[nn.Module] = [mlp, scale]
+        if cfg.pre_clip_range != 1.0:
+            head.append(_Rescale(cfg.pre_clip_range))
+        return nn.Sequential(*head), IndependentNormal, {}
     # biased_softplus_b maps a zero output to scale b: the initial exploration noise.
     mlp = _scale_head(group_mlp(n_inputs, 2 * size, n_agents, cfg), cfg.head_init_scale)
     extractor = NormalParamExtractor(scale_mapping=f"biased_softplus_{cfg.initial_action_scale}")

@@ -39,7 +39,10 @@ ACTIVATIONS: dict[str, type[nn.Module]] = {
 #:   Normal whose log scale is a learned parameter per action dimension, independent of
 #:   the state (initially ``initial_action_scale``); no squashing, the env clips the
 #:   sample to the bounds, and the stored action is the sample itself, so it is scored
-#:   exactly; the entropy is analytic.
+#:   exactly; the entropy is analytic. ML-Agents samples ``u ~ N(mu, sigma)`` with
+#:   ``sigma = 1`` at first and plays ``clip(u, -3, 3) / 3``: here ``pre_clip_range=3``
+#:   (the same distribution, parametrised in action units: ``loc = mu / 3``,
+#:   ``scale = sigma / 3``).
 ACTION_DISTRIBUTIONS: tuple[str, ...] = ("tanh_normal", "tanh_normal_bounded", "gaussian")
 
 
@@ -70,6 +73,11 @@ class NetworkConfig:
             0.01, so every action starts near 0).
         loc_bound: ``tanh_normal_bounded`` only: the bound of the pre-tanh mean
             (``> 0``; TorchRL's ``upscale``).
+        pre_clip_range: ``gaussian`` only: the network's mean and
+            ``initial_action_scale`` are in units where the action bounds are
+            ``±pre_clip_range``; the action is the sample divided by it (``> 0``;
+            ML-Agents 0.5: 3, so its initial scale of 1 is a third of the action range;
+            1: the network works in action units).
         shared_trunk: discrete actions (soccer) only: the actor and the worker critic
             of a group share their hidden layers, with a policy head and a value head
             on top (ML-Agents 0.5's discrete PPO network, which the paper's soccer
@@ -96,6 +104,7 @@ class NetworkConfig:
     initial_action_scale: float = 0.5
     head_init_scale: float = 1.0
     loc_bound: float = 5.0
+    pre_clip_range: float = 1.0
     shared_trunk: bool = False
 
     def __post_init__(self) -> None:
@@ -108,7 +117,7 @@ class NetworkConfig:
         scale = self.initial_action_scale
         if _given(scale) and not (math.isfinite(scale) and scale > 0):
             raise allowed("model.initial_action_scale", scale, "a finite number in (0, inf)")
-        for name in ("head_init_scale", "loc_bound"):
+        for name in ("head_init_scale", "loc_bound", "pre_clip_range"):
             value = getattr(self, name)
             if _given(value) and not (math.isfinite(value) and value > 0):
                 raise allowed(f"model.{name}", value, "a finite number in (0, inf)")

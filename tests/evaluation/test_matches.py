@@ -13,10 +13,10 @@ from rlhc.checkpoint import save_checkpoint
 from rlhc.envs import make_env
 from rlhc.evaluation.matches import (
     MatchRules,
-    _route,
     default_rules,
     evaluate_against,
     play_matches,
+    route_actions,
 )
 from rlhc.evaluation.opponents import make_team_policy
 from rlhc.evaluation.stats import wilson_interval
@@ -88,11 +88,13 @@ def test_route_takes_each_agent_from_its_teams_policy() -> None:
     td = TensorDict({("g", "team"): team}, [3])
     home = {"g": torch.full((3, 4, 2), 1.0)}
     away = {"g": torch.full((3, 4, 2), 2.0)}
-    _route(td, home, away, torch.tensor([0, 1, 0]))
+    route_actions(td, home, away, torch.tensor([0, 1, 0]))
     expected = torch.tensor([[1.0, 2.0, 1.0, 2.0], [2.0, 1.0, 2.0, 1.0], [1.0, 2.0, 1.0, 2.0]])
     torch.testing.assert_close(td["g", "action"][..., 0], expected)
     discrete = {"g": torch.ones(3, 4, dtype=torch.int64)}
-    _route(td, discrete, {"g": torch.zeros(3, 4, dtype=torch.int64)}, torch.tensor([1, 1, 0]))
+    route_actions(
+        td, discrete, {"g": torch.zeros(3, 4, dtype=torch.int64)}, torch.tensor([1, 1, 0])
+    )
     assert td["g", "action"][0].tolist() == [0, 1, 0, 1]
 
 

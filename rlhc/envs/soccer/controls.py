@@ -41,8 +41,9 @@ FORWARD = 0  # the same index in both groups
 
 #: cosine of the half-angle of the kicking arc in front of a player.
 _KICK_ARC_COS = 0.5
-#: how close (beyond touching) the ball must be for a kick to count.
-_KICK_REACH = 0.05
+#: how close (beyond touching) the ball must be for a kick to count: a player whose
+#: centre is within ``player_radius + ball_radius + KICK_REACH`` of the ball's touches it.
+KICK_REACH = 0.05
 
 
 def _motion_table(names: tuple[str, ...], options: SoccerOptions) -> np.ndarray:
@@ -110,7 +111,7 @@ class Controls:
         to_ball = positions[:, BALL : BALL + 1] - positions[:, :NUM_PLAYERS]  # [N, 4, 2]
         distance = np.linalg.norm(to_ball, axis=-1)
         in_front = np.sum(to_ball * facing, axis=-1) > _KICK_ARC_COS * distance
-        touching = distance <= options.player_radius + options.ball_radius + _KICK_REACH
+        touching = distance <= options.player_radius + options.ball_radius + KICK_REACH
         kicking = (
             touching & in_front & (np.concatenate([striker_actions, goalie_actions], 1) == FORWARD)
         )

@@ -1,0 +1,86 @@
+"""Tennis play diagnostics of several trained teams, side by side.
+
+Runs :func:`rlhc.evaluation.diagnostics.tennis_diagnostics` on each team (a run
+directory — its ``final_team.pt`` or newest checkpoint —, a checkpoint, or a final-team
+file) and writes ``--out`` (JSON, one entry per team, with the command that rebuilds it)
+and prints a Markdown table: hits over the net per point sampled and with mode actions,
+the policy's scale near the ball and elsewhere (move / jump / tilt), the share of
+saturated actions and of moves toward a ball in the racket's half.
+
+Usage::
+
+    python -m benchmarks.tennis_play benchmarks/results/learning/tennis/paper/*/seed_[34] \\
+        --out benchmarks/results/tennis_play_paper.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from benchmarks.reporting.summary import code_version
+from rlhc.evaluation.diagnostics.tennis import ACTION_NAMES, tennis_diagnostics
+from rlhc.final_team import load_team
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def row(name: str, result: dict[str, Any]) -> str:
+    """One Markdown table row of a team's diagnostics."""
+
+    def triple(values: dict[str, float]) -> str:
+        return " / ".join(f"{values[n]:.2f}" for n in ACTION_NAMES)
+
+    return (
+        f"| {name} | {result['hits_per_point']:.2f} | {result['hits_per_point_mode']:.2f} "
+        f"| {triple(result['sigma_near'])} | {triple(result['sigma_far'])} "
+        f"| {triple(result['saturated'])} | {result['toward_ball']:.2f} "
+        f"| {result['toward_ball_mode']:.2f} |"
+    )
+
+
+HEADER = (
+    "| team | hits/point | hits/point (mode) | scale near ball (move/jump/tilt) "
+    "| scale elsewhere | saturated | toward ball | toward ball (mode) |\n"
+    "|---|---:|---:|---|---|---|---:|---:|"
+)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("teams", nargs="+", help="run directories, checkpoints or team files")
+    parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
+    parser.add_argument("--worlds", type=int, default=32)
+    parser.add_argument("--decisions", type=int, default=1000)
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    torch.set_num_threads(1)
+    teams: dict[str, Any] = {}
+    for team in args.teams:
+        state = load_team(team)
+        result = tennis_diagnostics(
+            state, worlds=args.worlds, decisions=args.decisions, seed=args.seed
+        )
+        result["frames"] = int(state.get("frames", 0))
+        result["source"] = Path(state["path"]).name
+        teams[team] = result
+        print(row(team, result), flush=True)
+    command = shlex.join(["python", "-m", "benchmarks.tennis_play", *sys.argv[1:]])
+    payload = {"command": command, "code_version": code_version(), "teams": teams}
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(payload, indent=2) + "\n")
+    print(HEADER)
+    for team, result in teams.items():
+        print(row(team, result))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,146 @@
+"""What ``conf/train.yaml`` and ``conf/evaluate.yaml`` name: callbacks and two resolvers.
+
+| name in ``conf/<config>.yaml`` | here | answers |
+|---|---|---|
+| ``hydra.callbacks.preflight`` of ``train`` | :class:`Preflight` | checks a single run before Hydra creates its directory |
+| ``hydra.callbacks.preflight`` of ``evaluate`` | :class:`EvaluatePreflight` | checks a single evaluation (values, players) before Hydra creates its directory |
+| ``${rlhc.run_dir:…}`` (``hydra.run.dir``) | :func:`run_directory` | a resume continues in the resumed run's directory |
+| ``${rlhc.output_subdir:…}`` (``hydra.output_subdir``) | :func:`output_subdir` | a multirun job that will not train gets no ``.hydra/`` |
+
+The resolvers are registered when this module is imported (by :mod:`rlhc.run`, and by
+Hydra when it instantiates the callback).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+from hydra.core.hydra_config import HydraConfig
+from hydra.experimental.callback import Callback
+from hydra.types import RunMode
+from omegaconf import DictConfig, OmegaConf
+
+from rlhc.checkpoint import ResumeError, run_dir_of
+from rlhc.cli.report import HYDRA_USER_ERRORS
+from rlhc.cli.start import checked, task_config
+from rlhc.config import RESUME_AUTO
+from rlhc.evaluation.commands import check_evaluation
+from rlhc.evaluation.config import EvaluateConfig
+
+#: Errors a user fixes by changing the command line of ``rlhc.run``.
+USER_ERRORS: tuple[type[BaseException], ...] = (*HYDRA_USER_ERRORS, ResumeError)
+
+
+class PreflightFailed(BaseException):
+    """A user error found by a callback, carried past Hydra to the entry point's ``cli``.
+
+    A ``BaseException``: Hydra turns a callback's ``Exception`` into a warning and runs
+    the job anyway.
+    """
+
+    def __init__(self, error: BaseException) -> None:
+        super().__init__(str(error))
+        self.error = error
+
+
+class Preflight(Callback):
+    """Hydra callback: check a single run (:func:`rlhc.cli.start.checked`) before Hydra
+    creates its directory.
+
+    Configured in ``conf/train.yaml`` (``hydra.callbacks``). A finished run ends here
+    (exit 0) without writing anything; a user error reaches :func:`rlhc.run.cli` as
+    :class:`PreflightFailed`. The check (with the checkpoint it loaded) is kept for the
+    job. A multirun checks each job in :func:`output_subdir` and in :func:`rlhc.run.main`
+    instead.
+    """
+
+    def on_run_start(self, config: DictConfig, **kwargs: Any) -> None:
+        # As Hydra does first thing for the job: ``hydra.run.dir`` may read it.
+        HydraConfig.instance().set_config(config)
+        try:
+            start = checked(config, Path(str(config.hydra.run.dir)), fresh=True)
+        except USER_ERRORS as error:
+            raise PreflightFailed(error) from error
+        message = start.finished_message()
+        if message is not None:
+            print(message, flush=True)
+            sys.exit(0)
+
+
+class EvaluatePreflight(Callback):
+    """Hydra callback: check a single evaluation before Hydra creates its directory.
+
+    Configured in ``conf/evaluate.yaml`` (``hydra.callbacks``): the values and every
+    player (:func:`rlhc.evaluation.commands.check_evaluation`). A user error reaches
+    :func:`rlhc.evaluate.cli` as :class:`PreflightFailed`, with nothing written.
+    """
+
+    def on_run_start(self, config: DictConfig, **kwargs: Any) -> None:
+        HydraConfig.instance().set_config(config)
+        try:
+            eval_cfg: EvaluateConfig = task_config(config)
+            check_evaluation(eval_cfg)
+        except HYDRA_USER_ERRORS as error:
+            raise PreflightFailed(error) from error
+
+
+def run_directory(resume: str | None, default: str) -> str:
+    """``hydra.run.dir``: the resumed run's directory, else ``default`` (a new one).
+
+    Registered as the ``rlhc.run_dir`` resolver; ``hydra.run.dir=`` on the command line
+    replaces the interpolation, so an explicit directory always wins. ``resume=auto``
+    names no other run: the run directory is ``default``.
+
+    Examples:
+        >>> run_directory(None, "outputs/new"), run_directory("auto", "outputs/new")
+        ('outputs/new', 'outputs/new')
+    """
+    run_dir = run_dir_of(resume) if resume and resume != RESUME_AUTO else None
+    return default if run_dir is None else str(run_dir)
+
+
+def output_subdir(subdir: str, *, _root_: DictConfig) -> str | None:
+    """``hydra.output_subdir``: ``subdir``, or ``None`` for a multirun job that will not train.
+
+    Registered as the ``rlhc.output_subdir`` resolver. Hydra writes ``.hydra/`` into a
+    multirun job's directory before the job starts and offers no hook before that, so
+    this answers, for each job, whether its check (:func:`rlhc.cli.start.checked`) lets
+    it train: a finished run's directory must stay as it was, and so must any directory
+    a user error reaches. A single run was checked already (:class:`Preflight`).
+
+    Args:
+        subdir: where ``.hydra/`` goes when the job trains (Hydra's ``.hydra``).
+        _root_: the job's whole config (given by OmegaConf).
+
+    Returns:
+        ``subdir``, or ``None`` (Hydra's "write no ``.hydra/``").
+    """
+    try:
+        hydra_cfg = HydraConfig.get()
+        if hydra_cfg.mode != RunMode.MULTIRUN:
+            return subdir
+        start = checked(_root_, Path(hydra_cfg.runtime.output_dir))
+    except Exception:  # whatever fails here fails again in main(), which reports it
+        return None
+    return subdir if start.finished_message() is None else None
+
+
+def register_resolvers() -> None:
+    """Register ``rlhc.run_dir`` and ``rlhc.output_subdir`` with OmegaConf (again: replaced)."""
+    OmegaConf.register_new_resolver("rlhc.run_dir", run_directory, replace=True)
+    OmegaConf.register_new_resolver("rlhc.output_subdir", output_subdir, replace=True)
+
+
+register_resolvers()
+
+__all__ = [
+    "USER_ERRORS",
+    "EvaluatePreflight",
+    "Preflight",
+    "PreflightFailed",
+    "output_subdir",
+    "register_resolvers",
+    "run_directory",
+]

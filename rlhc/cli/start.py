@@ -1,0 +1,155 @@
+"""Before a training run writes anything: its config checked, its checkpoint loaded once.
+
+A start is checked before Hydra writes into the run's directory: a single run by the
+``Preflight`` callback, a multirun job by the ``rlhc.output_subdir`` resolver (both in
+:mod:`rlhc.cli.hydra_hooks`), and then again when :func:`rlhc.run.main` starts the job.
+Loading a checkpoint is the costly part of a check, so the latest check is kept: the
+job takes it (:func:`take_checked`), checkpoint included, and hands that checkpoint
+to the :class:`~rlhc.trainer.Trainer`. A resume loads its checkpoint once.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import os
+from pathlib import Path
+from typing import Any
+
+from omegaconf import DictConfig, OmegaConf, open_dict, read_write
+
+from rlhc.builders import Layout
+from rlhc.checkpoint import ResumeError, checkpoint_candidates, load_checkpoint
+from rlhc.cli.report import shown
+from rlhc.config import RESUME_AUTO, TrainConfig
+from rlhc.distributed import launched_size
+from rlhc.training_state import check_resumable
+from rlhc.validation import validate
+
+
+@dataclasses.dataclass(frozen=True)
+class Start:
+    """A checked start of a training run.
+
+    Attributes:
+        cfg: the config to train, ``resume=auto`` resolved (:func:`resolve_resume`).
+        state: the checkpoint it continues (:func:`rlhc.checkpoint.load_checkpoint`,
+            checked by :func:`rlhc.training_state.check_resumable`); ``None``: a fresh run.
+    """
+
+    cfg: TrainConfig
+    state: dict[str, Any] | None
+
+    def finished_message(self) -> str | None:
+        """What to say when the checkpoint already reached the budget, else ``None``."""
+        if self.state is None or int(self.state["frames"]) < self.cfg.algo.max_steps:
+            return None
+        return (
+            f"{shown(Path(self.state['path']))} has trained {int(self.state['frames']):,} "
+            f"frames of algo.max_steps={self.cfg.algo.max_steps:,}: the run is finished, "
+            "nothing to do (raise algo.max_steps to continue it)"
+        )
+
+
+#: The latest check (absolute run directory, start): one slot, so that at most one
+#: checkpoint is held between a check and the job that takes it.
+_latest: tuple[str, Start] | None = None
+
+
+def task_config(config: DictConfig) -> Any:
+    """The task's config object (its schema's dataclass, e.g. :class:`TrainConfig`) of a
+    composed config, without its ``hydra`` node if it has one."""
+    task = copy.deepcopy(config)
+    with read_write(task), open_dict(task):
+        task.pop("hydra", None)
+    return OmegaConf.to_object(task)
+
+
+def resolve_resume(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
+    """``cfg`` with ``resume=auto`` replaced by what it means in ``run_dir``.
+
+    ``auto`` becomes ``run_dir`` when it holds a checkpoint file and ``None`` (a fresh
+    run) otherwise; any other value is kept. A directory whose checkpoint files all fail
+    to load becomes ``run_dir`` too, so that :func:`preflight` refuses it, naming each
+    file, rather than a fresh run overwriting the run's ``metrics.csv``.
+
+    Args:
+        cfg: the composed config (not changed).
+        run_dir: the directory this run writes to.
+
+    Examples:
+        >>> resolve_resume(TrainConfig(resume="auto"), Path("no/such/run")).resume is None
+        True
+    """
+    if cfg.resume != RESUME_AUTO:
+        return cfg
+    resume = shown(run_dir) if checkpoint_candidates(run_dir) else None
+    return dataclasses.replace(cfg, resume=resume)
+
+
+def preflight(cfg: TrainConfig) -> dict[str, Any] | None:
+    """Check everything that can fail before a file is written; the checkpoint to resume.
+
+    Args:
+        cfg: the config, ``resume=auto`` already resolved (:func:`resolve_resume`).
+
+    Returns:
+        The loaded and checked checkpoint of ``cfg.resume``; ``None`` for a fresh run.
+
+    Raises:
+        ConfigError: a value the schema let through but the trainer cannot use.
+        ResumeError: ``cfg.resume`` holds no loadable checkpoint, or one trained with
+            settings a resume cannot change.
+    """
+    size = launched_size()
+    validate(cfg, size)
+    Layout.from_config(cfg, size if cfg.parallel == "data" else 1)
+    if not cfg.resume:
+        return None
+    try:
+        state = load_checkpoint(cfg.resume)
+    except (FileNotFoundError, ValueError) as error:
+        raise ResumeError(f"resume={cfg.resume!r}: {error}") from error
+    check_resumable(cfg, state)
+    return state
+
+
+def checked(config: DictConfig, run_dir: Path, *, fresh: bool = False) -> Start:
+    """The checked start of a composed ``config`` in ``run_dir``.
+
+    The result is kept until the next check: checking the same config for the same
+    directory again returns it without loading the checkpoint again.
+
+    Args:
+        config: the composed config (its ``hydra`` node, if any, is left out).
+        run_dir: the directory the run writes to (where ``resume=auto`` looks).
+        fresh: check even if the latest check was of the same start (the first check
+            of a start: what an earlier start left is never taken for it).
+
+    Raises:
+        ConfigError, ResumeError: as :func:`preflight`.
+        OmegaConfBaseException: a value of the wrong type (the schema's check).
+    """
+    global _latest
+    train_cfg: TrainConfig = task_config(config)
+    cfg = resolve_resume(train_cfg, run_dir)
+    key = os.path.abspath(run_dir)
+    if not fresh and _latest is not None and _latest[0] == key and _latest[1].cfg == cfg:
+        return _latest[1]
+    _latest = None  # a failed check keeps no earlier start
+    start = Start(cfg, preflight(cfg))
+    _latest = (key, start)
+    return start
+
+
+def take_checked(config: DictConfig, run_dir: Path) -> Start:
+    """:func:`checked`, for the job that starts: the kept check is taken, not kept."""
+    start = checked(config, run_dir)
+    forget_checked()
+    return start
+
+
+def forget_checked() -> None:
+    """Drop the kept check (and the checkpoint it holds)."""
+    global _latest
+    _latest = None

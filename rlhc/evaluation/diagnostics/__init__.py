@@ -1,0 +1,43 @@
+"""Play diagnostics: what a trained team does, beyond who wins.
+
+| module | game | measures |
+|---|---|---|
+| :mod:`~rlhc.evaluation.diagnostics.tennis` | tennis | hits per point (sampled / mode), the policy's noise near the ball and elsewhere, saturated actions, moves toward the ball |
+| :mod:`~rlhc.evaluation.diagnostics.soccer` | soccer | against the scripted team and in self-play, per team: goals, shots and shots on target per 1,000 decisions and how the shots on target end, the ball's time in the opponents' half, striker-to-ball and goalie-to-goal distances, touches per episode, action shares |
+
+``python -m rlhc.evaluation.diagnostics <run dir or .pt>`` prints the diagnostics of a
+team's game as JSON (:func:`diagnose` picks them by the team's game).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from rlhc.evaluation.diagnostics.soccer import soccer_diagnostics
+from rlhc.evaluation.diagnostics.tennis import tennis_diagnostics
+
+#: game name -> its diagnostics ``(state, *, worlds, decisions, seed) -> dict``.
+DIAGNOSTICS: dict[str, Callable[..., dict[str, Any]]] = {
+    "soccer": soccer_diagnostics,
+    "tennis": tennis_diagnostics,
+}
+
+
+def diagnose(
+    state: Mapping[str, Any], *, worlds: int = 32, decisions: int = 1000, seed: int = 0
+) -> dict[str, Any]:
+    """The play diagnostics of a loaded team (:func:`rlhc.final_team.load_team`).
+
+    Raises:
+        ValueError: no diagnostics for the team's game (the message lists those there are).
+    """
+    game = state["env"]
+    if game not in DIAGNOSTICS:
+        raise ValueError(
+            f"no play diagnostics for {game!r}; there are for: {', '.join(sorted(DIAGNOSTICS))}"
+        )
+    return DIAGNOSTICS[game](state, worlds=worlds, decisions=decisions, seed=seed)
+
+
+__all__ = ["DIAGNOSTICS", "diagnose", "soccer_diagnostics", "tennis_diagnostics"]

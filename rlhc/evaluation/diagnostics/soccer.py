@@ -1,0 +1,279 @@
+"""Why a soccer team draws: what it does against the scripted team, beyond who wins.
+
+A trained team plays the game's scripted team with mode actions, as in matches, on
+fresh pitches: half of them with the trained team on each side, each agent's action
+taken from its team's policy (:func:`rlhc.evaluation.matches.route_actions`); then it
+plays itself (self-play, both sides the same policy). Every decision is recorded from
+the game's public state and measured by
+:func:`~rlhc.evaluation.diagnostics.soccer_events.count_events` (whose docstring
+defines touches, shots and their outcomes). Per team:
+
+======================================= ================================================
+key                                     what
+======================================= ================================================
+``goals_per_1000``                      goals scored per 1,000 pitch-decisions
+``shots_per_1000``                      shots (by striker or goalie) per 1,000
+                                        pitch-decisions
+``goalie_shot_share``                   the goalie's share of those shots
+``shots_on_target_per_1000``            shots on target per 1,000 pitch-decisions
+``on_target_outcomes``                  share of the shots on target ending in each of
+                                        :data:`~rlhc.evaluation.diagnostics.soccer_events.SHOT_OUTCOMES`
+``ball_in_opponent_half``               share of decisions with the ball's centre in the
+                                        opponents' half
+``striker_ball_distance``               the striker's mean centre distance to the ball (m)
+``goalie_goal_distance``                the goalie's mean distance from the centre of its
+                                        own goal line (m)
+``striker_touches_per_episode``         touches of the ball per episode, by the striker;
+                                        ``goalie_touches_per_episode`` likewise
+``striker_actions``, ``goalie_actions`` share of the decisions given to each action
+``goals``, ``shots``, ``shots_on_target`` the raw counts
+======================================= ================================================
+
+and per play: ``episodes`` (started), ``goal_share`` (share of the ended episodes that
+ended by a goal) and ``episode_length`` (pitch-decisions per episode started). The
+against-scripted play is ``result["vs_scripted"]`` with teams ``trained`` and
+``scripted``; self-play is ``result["self_play"]`` with the two sides pooled into
+``trained``. ``python -m rlhc.evaluation.diagnostics <run dir or .pt>`` prints it all
+as JSON.
+
+Examples:
+    >>> result = scripted_diagnostics(worlds=2, decisions=20, seed=0)
+    >>> sorted(result["scripted_vs_scripted"])
+    ['episode_length', 'episodes', 'goal_share', 'team_0', 'team_1']
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import torch
+from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
+
+from rlhc.envs import make_env
+from rlhc.envs.keys import ACTION, DONE, NEXT, RESET, SCORING_TEAM
+from rlhc.envs.soccer.config import SoccerOptions
+from rlhc.envs.soccer.controls import GOALIE_ACTIONS, STRIKER_ACTIONS
+from rlhc.envs.soccer.game import SoccerGame
+from rlhc.envs.torchrl_adapter import BatchedGameEnv
+from rlhc.evaluation.diagnostics.soccer_events import SHOT_OUTCOMES, PlayRecord, count_events
+from rlhc.evaluation.matches import route_actions
+from rlhc.evaluation.policies import observation_options, restore_policy
+from rlhc.evaluation.teams import ScriptedPolicy, TeamPolicy
+
+ACTION_NAMES: dict[str, tuple[str, ...]] = {
+    "striker": STRIKER_ACTIONS,
+    "goalie": GOALIE_ACTIONS,
+}
+
+
+def _soccer_game(env: BatchedGameEnv) -> SoccerGame:
+    if not isinstance(env.game, SoccerGame):
+        raise ValueError(f"soccer diagnostics need a soccer env, got a {env.game.name!r} one")
+    return env.game
+
+
+def record_play(
+    env: BatchedGameEnv,
+    home: TeamPolicy,
+    away: TeamPolicy,
+    home_side: torch.Tensor,
+    decisions: int,
+) -> PlayRecord:
+    """Play ``decisions`` decisions of every pitch of ``env`` and record them.
+
+    A pitch whose episode ends (goal or truncation) kicks off again at once. The
+    policies act with their mode (deterministic) actions, as in matches.
+
+    Args:
+        env: a soccer env (:func:`rlhc.envs.make_env`), ``K`` pitches; it is reset first.
+        home: the team policy of the home side; ``away`` likewise (may be ``home``).
+        home_side: ``int [K]``, the team (0 or 1) ``home`` plays in each pitch.
+        decisions: decisions per pitch.
+
+    Returns:
+        The record :func:`~rlhc.evaluation.diagnostics.soccer_events.count_events` reads.
+
+    Raises:
+        ValueError: ``env`` is not a soccer env, or ``decisions < 1``.
+    """
+    game = _soccer_game(env)
+    if decisions < 1:
+        raise ValueError(f"decisions must be >= 1, got {decisions}")
+    worlds = game.num_worlds
+    before, after, scoring, ended = [], [], [], []
+    actions: dict[str, list[np.ndarray]] = {group: [] for group in ACTION_NAMES}
+    tensordict = env.reset()
+    with torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):
+        for _ in range(decisions):
+            before.append(game.state())
+            home_actions = home(tensordict)
+            away_actions = home_actions if away is home else away(tensordict)
+            route_actions(tensordict, home_actions, away_actions, home_side)
+            for group in actions:
+                actions[group].append(tensordict[group, ACTION].numpy().copy())
+            tensordict = env.step(tensordict)
+            after.append(game.state())
+            scoring.append(tensordict[NEXT, SCORING_TEAM].view(worlds).numpy().copy())
+            done = tensordict[NEXT, DONE].view(worlds).numpy().copy()
+            ended.append(done)
+            tensordict = step_mdp(tensordict)
+            if done.any():
+                tensordict.set(RESET, torch.from_numpy(done).view(worlds, 1))
+                tensordict = env.reset(tensordict)
+    return PlayRecord(
+        before=np.stack(before),
+        after=np.stack(after),
+        scoring_team=np.stack(scoring),
+        ended=np.stack(ended),
+        actions={group: np.stack(taken) for group, taken in actions.items()},
+    )
+
+
+def summarise_play(
+    record: PlayRecord, options: SoccerOptions, teams: Mapping[str, Sequence[np.ndarray]]
+) -> dict[str, Any]:
+    """The per-team table of the module docstring for a recorded play.
+
+    Args:
+        record: the play.
+        options: the game's :class:`~rlhc.envs.soccer.config.SoccerOptions`.
+        teams: name -> the team (0 or 1) that name played in each pitch, ``int [K]``
+            each; several arrays pool their columns (self-play: both sides).
+
+    Returns:
+        ``{name: metrics}`` for every name, plus ``episodes``, ``goal_share`` and
+        ``episode_length`` of the play.
+    """
+    counts = count_events(record, options)
+    worlds = np.arange(record.scoring_team.shape[1])
+    result: dict[str, Any] = {}
+    for name, picks in teams.items():
+        total = {
+            key: float(sum(value[worlds, pick].sum() for pick in picks))
+            for key, value in counts.items()
+            if value.ndim == 2
+        }
+        decisions = float(counts["decisions"].sum()) * len(picks)
+        episodes = float(counts["episodes"].sum()) * len(picks)
+        on_target = total["shots_on_target"]
+        metrics: dict[str, Any] = {
+            "goals_per_1000": 1000 * total["goals"] / decisions,
+            "shots_per_1000": 1000 * total["shots"] / decisions,
+            "goalie_shot_share": total["goalie_shots"] / total["shots"]
+            if total["shots"]
+            else float("nan"),
+            "shots_on_target_per_1000": 1000 * total["shots_on_target"] / decisions,
+            "on_target_outcomes": {
+                outcome: total[f"on_target_{outcome}"] / on_target if on_target else float("nan")
+                for outcome in SHOT_OUTCOMES
+            },
+            "ball_in_opponent_half": total["ball_in_opponent_half"] / decisions,
+            "striker_ball_distance": total["striker_ball_distance"] / decisions,
+            "goalie_goal_distance": total["goalie_goal_distance"] / decisions,
+            "striker_touches_per_episode": total["striker_touches"] / episodes,
+            "goalie_touches_per_episode": total["goalie_touches"] / episodes,
+        }
+        for group, names in ACTION_NAMES.items():
+            taken = np.concatenate(
+                [record.actions[group][:, worlds, pick].reshape(-1) for pick in picks]
+            )
+            shares = np.bincount(taken, minlength=len(names)) / len(taken)
+            metrics[f"{group}_actions"] = dict(zip(names, shares.tolist(), strict=True))
+        metrics.update({key: int(total[key]) for key in ("goals", "shots", "shots_on_target")})
+        result[name] = metrics
+    ends = float(record.ended.sum())
+    result["episodes"] = int(counts["episodes"].sum())
+    result["goal_share"] = float((record.scoring_team >= 0).sum()) / ends if ends else float("nan")
+    result["episode_length"] = float(counts["decisions"].sum()) / result["episodes"]
+    return result
+
+
+def _sides(worlds: int) -> np.ndarray:
+    """``int64 [K]``: home's team per pitch, alternating (half the pitches on each side)."""
+    return np.arange(worlds, dtype=np.int64) % 2
+
+
+def soccer_diagnostics(
+    state: Mapping[str, Any],
+    *,
+    worlds: int = 32,
+    decisions: int = 1000,
+    seed: int = 0,
+    self_play: bool = True,
+) -> dict[str, Any]:
+    """The table of the module docstring for a trained soccer team.
+
+    Args:
+        state: a loaded checkpoint or final team (:func:`rlhc.final_team.load_team`).
+        worlds: pitches played at once (the trained team on team ``k % 2`` of pitch ``k``).
+        decisions: decisions per pitch, for each play (against scripted, self-play).
+        seed: the pitches' seed (the same for both plays); torch is seeded with it too.
+        self_play: also play the team against itself (twice the time).
+
+    Returns:
+        A JSON-ready dict: ``worlds``, ``decisions``, ``seed``, ``vs_scripted`` and,
+        with ``self_play``, ``self_play``.
+
+    Raises:
+        ValueError: ``state`` is not a soccer team.
+    """
+    if state["env"] != "soccer":
+        raise ValueError(f"soccer_diagnostics needs a soccer team, got one of {state['env']!r}")
+    options = observation_options(state)
+    result: dict[str, Any] = {"worlds": worlds, "decisions": decisions, "seed": seed}
+    sides = _sides(worlds)
+    for play in ("vs_scripted", "self_play") if self_play else ("vs_scripted",):
+        torch.manual_seed(seed)
+        env = make_env("soccer", num_envs=worlds, seed=seed, **options)
+        assert isinstance(env, BatchedGameEnv)
+        try:
+            trained = restore_policy(state, env)
+            opponent: TeamPolicy = ScriptedPolicy(env) if play == "vs_scripted" else trained
+            record = record_play(env, trained, opponent, torch.from_numpy(sides), decisions)
+            game_options = _soccer_game(env).options
+        finally:
+            env.close()
+        teams = (
+            {"trained": [sides], "scripted": [1 - sides]}
+            if play == "vs_scripted"
+            else {"trained": [sides, 1 - sides]}
+        )
+        result[play] = summarise_play(record, game_options, teams)
+    return result
+
+
+def scripted_diagnostics(
+    *, worlds: int = 32, decisions: int = 1000, seed: int = 0, **game_options: Any
+) -> dict[str, Any]:
+    """The scripted team against itself, measured as :func:`soccer_diagnostics` measures
+    a trained team: the reference of what a team that shoots does.
+
+    Args:
+        worlds: pitches played at once.
+        decisions: decisions per pitch.
+        seed: the pitches' seed.
+        **game_options: soccer options (:class:`~rlhc.envs.soccer.config.SoccerOptions`).
+
+    Returns:
+        ``worlds``, ``decisions``, ``seed`` and ``scripted_vs_scripted`` with teams
+        ``team_0`` and ``team_1`` (the play's sides).
+    """
+    env = make_env("soccer", num_envs=worlds, seed=seed, **game_options)
+    assert isinstance(env, BatchedGameEnv)
+    try:
+        scripted = ScriptedPolicy(env)
+        zeros = torch.zeros(worlds, dtype=torch.int64)
+        record = record_play(env, scripted, scripted, zeros, decisions)
+        options = _soccer_game(env).options
+    finally:
+        env.close()
+    everywhere = np.zeros(worlds, dtype=np.int64)
+    play = summarise_play(record, options, {"team_0": [everywhere], "team_1": [everywhere + 1]})
+    return {
+        "worlds": worlds,
+        "decisions": decisions,
+        "seed": seed,
+        "scripted_vs_scripted": play,
+    }
