@@ -38,8 +38,8 @@ against pymunk's own contacts on scripted play in the tests: most touches are se
 
 Examples:
     >>> from rlhc.envs.soccer.config import SoccerOptions
-    >>> rolling_reach(np.array([6.7]), SoccerOptions()).round(1)  # a kick rolls ~18 m
-    array([17.9])
+    >>> rolling_reach(np.array([6.7]), SoccerOptions()).round(1)  # a kick rolls ~18.5 m
+    array([18.5])
 """
 
 from __future__ import annotations
