@@ -38,7 +38,7 @@ against pymunk's own contacts on scripted play in the tests: most touches are se
 
 Examples:
     >>> from rlhc.envs.soccer.config import SoccerOptions
-    >>> rolling_reach(np.array([6.7]), SoccerOptions()).round(1)  # a kick rolls ~18.5 m
+    >>> rolling_reach(np.array([6.7]), SoccerOptions()).round(1)  # a kick rolls ~18 m
     array([18.5])
 """
 
