@@ -29,8 +29,11 @@ key                                     what
 ``goals``, ``shots``, ``shots_on_target`` the raw counts
 ======================================= ================================================
 
-and per play: ``episodes`` (started), ``goal_share`` (share of the ended episodes that
-ended by a goal) and ``episode_length`` (pitch-decisions per episode started). The
+and per play: ``episodes`` (started), and over the episodes that started at least
+``max_cycles`` decisions before the end of the play (so that every one of them ended
+within it, long ones as well as short ones): ``complete_episodes`` (how many),
+``goal_share`` (the share that ended by a goal; the others were truncated: a match's
+draw) and ``episode_length`` (their mean length, decisions). The
 against-scripted play is ``result["vs_scripted"]`` with teams ``trained`` and
 ``scripted``; self-play is ``result["self_play"]`` with the two sides pooled into
 ``trained``. ``python -m rlhc.evaluation.diagnostics <run dir or .pt>`` prints it all
@@ -39,7 +42,7 @@ as JSON.
 Examples:
     >>> result = scripted_diagnostics(worlds=2, decisions=20, seed=0)
     >>> sorted(result["scripted_vs_scripted"])
-    ['episode_length', 'episodes', 'goal_share', 'team_0', 'team_1']
+    ['complete_episodes', 'episode_length', 'episodes', 'goal_share', 'team_0', 'team_1']
 """
 
 from __future__ import annotations
@@ -143,8 +146,8 @@ def summarise_play(
             each; several arrays pool their columns (self-play: both sides).
 
     Returns:
-        ``{name: metrics}`` for every name, plus ``episodes``, ``goal_share`` and
-        ``episode_length`` of the play.
+        ``{name: metrics}`` for every name, plus ``episodes``, ``complete_episodes``,
+        ``goal_share`` and ``episode_length`` of the play (module docstring).
     """
     counts = count_events(record, options)
     worlds = np.arange(record.scoring_team.shape[1])
@@ -183,11 +186,45 @@ def summarise_play(
             metrics[f"{group}_actions"] = dict(zip(names, shares.tolist(), strict=True))
         metrics.update({key: int(total[key]) for key in ("goals", "shots", "shots_on_target")})
         result[name] = metrics
-    ends = float(record.ended.sum())
+    lengths, goals = complete_episodes(record, options.max_cycles)
     result["episodes"] = int(counts["episodes"].sum())
-    result["goal_share"] = float((record.scoring_team >= 0).sum()) / ends if ends else float("nan")
-    result["episode_length"] = float(counts["decisions"].sum()) / result["episodes"]
+    result["complete_episodes"] = len(lengths)
+    result["goal_share"] = float(goals.mean()) if len(goals) else float("nan")
+    result["episode_length"] = float(lengths.mean()) if len(lengths) else float("nan")
     return result
+
+
+def complete_episodes(record: PlayRecord, max_cycles: int) -> tuple[np.ndarray, np.ndarray]:
+    """Length and goal flag of every episode that started at least ``max_cycles``
+    decisions before the end of ``record``, hence ended within it.
+
+    Counting only the episodes that ended within a play of fixed length would favour
+    short ones (goals); an episode that starts early enough ends within it however it
+    ends.
+
+    Examples:
+        >>> ended = np.array([[0], [1], [0], [0], [0], [1], [0], [1], [0], [0]], dtype=bool)
+        >>> scoring = np.where(ended, 0, -1)
+        >>> scoring[5] = -1  # the second episode is truncated
+        >>> record = PlayRecord(
+        ...     np.zeros((10, 1, 28)), np.zeros((10, 1, 28)), scoring, ended, {}
+        ... )
+        >>> lengths, goals = complete_episodes(record, max_cycles=4)
+        >>> lengths.tolist(), goals.tolist()
+        ([2, 4, 2], [True, False, True])
+    """
+    decisions, worlds = record.ended.shape
+    lengths: list[int] = []
+    goals: list[bool] = []
+    for world in range(worlds):
+        start = 0
+        for end in np.flatnonzero(record.ended[:, world]).tolist():
+            if start + max_cycles > decisions:
+                break
+            lengths.append(end - start + 1)
+            goals.append(bool(record.scoring_team[end, world] >= 0))
+            start = end + 1
+    return np.array(lengths, dtype=np.int64), np.array(goals, dtype=bool)
 
 
 def _sides(worlds: int) -> np.ndarray:
