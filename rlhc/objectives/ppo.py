@@ -340,6 +340,7 @@ def make_ppo_loss(
     normalize_advantage: bool = True,
     loss_critic_type: str = "l2",
     reduction: str = "mean",
+    shifted: bool = False,
 ) -> HierarchicalPPOLoss:
     """The PPO loss of one group, with its hierarchical value estimator attached.
 
@@ -363,6 +364,9 @@ def make_ppo_loss(
             ``"none"`` (per-sample terms, e.g. for
             :func:`~rlhc.objectives.weighting.learner_weighted_loss`, which wants
             ``normalize_advantage=False`` too).
+        shifted: the estimator reads trajectories and runs the critics once per batch
+            (see :class:`~rlhc.objectives.value.HierarchicalValueEstimator`); the
+            trainer's collected batches are.
 
     Returns:
         A :class:`HierarchicalPPOLoss`; its ``value_estimator`` is a
@@ -423,6 +427,7 @@ def make_ppo_loss(
             weight=weight,
             manager_interval=manager_interval,
             group=group,
+            shifted=shifted,
         )
     )
     return loss

@@ -279,6 +279,13 @@ class HierarchicalValueEstimator(GAE):
         time_dim: the time dimension of the input; by default the one named ``"time"``,
             else the last batch dimension (the collector's ``[N_envs, T]`` layout).
         skip_existing: forwarded to the critics, as in TorchRL's estimators.
+        shifted: the data are trajectories (a collector's ``[*B, T]`` batch): the
+            ``"next"`` observation of step ``t`` is the root observation of ``t + 1``
+            wherever the episode goes on. The critics then run once on the root
+            observations, and on ``"next"`` only where it differs or may differ
+            (steps whose ``done`` is set: episode ends and cuts; the last step), as
+            TorchRL's ``GAE(shifted=True)`` saves its second call. ``False`` (the
+            default) evaluates every ``"next"`` observation: right for any data.
 
     The critics are borrowed, not owned (as TorchRL's ``GAE`` does with its value
     network): the loss and the trainer hold their parameters, so attaching the
@@ -390,6 +397,7 @@ class HierarchicalValueEstimator(GAE):
         differentiable: bool = False,
         time_dim: int | None = None,
         skip_existing: bool | None = None,
+        shifted: bool = False,
     ) -> None:
         check_fusion(fusion, weight)
         check_manager_interval(manager_interval)
@@ -402,6 +410,7 @@ class HierarchicalValueEstimator(GAE):
             vectorized=True,
             skip_existing=skip_existing,
             time_dim=time_dim,
+            shifted=shifted,
         )
         # A tuple, which torch.nn.Module does not register: the critics are borrowed.
         self._critics = (worker_value_network, manager_value_network)
@@ -555,14 +564,18 @@ class HierarchicalValueEstimator(GAE):
             if self.skip_existing is not None
             else contextlib.nullcontext()
         )
+        time_dim = resolve_time_dim(tensordict, time_dim, self.time_dim)
         with skip:
             with torch.set_grad_enabled(self.differentiable):
                 fused_value(tensordict)
             # The bootstrap V_hat(s_{t+1}) never carries gradient (as in TorchRL's GAE).
-            # A shallow copy keeps V_hat(s_{t+1}) out of the data; the critics' own
-            # values are copied back under "next".
             with torch.no_grad():
-                next_values = fused_value(next_td.copy())
+                if self.shifted:
+                    next_values = self._shifted_next_values(tensordict, next_td, time_dim)
+                else:
+                    # A shallow copy keeps V_hat(s_{t+1}) out of the data.
+                    next_values = fused_value(next_td.copy())
+        # The critics' own values of the next observations, under "next".
         next_td.update(next_values.select(tk.worker_value, tk.manager_value))
 
         value = tensordict.get(tk.value)
@@ -578,10 +591,37 @@ class HierarchicalValueEstimator(GAE):
         gae_inputs.set(("next", *as_tuple(tk.reward)), reward)
         gae_inputs.set(("next", *as_tuple(tk.done)), done.bool())
         gae_inputs.set(("next", *as_tuple(tk.terminated)), terminated.bool())
-        super().forward(gae_inputs, time_dim=resolve_time_dim(tensordict, time_dim, self.time_dim))
+        super().forward(gae_inputs, time_dim=time_dim)
         tensordict.set(tk.advantage, gae_inputs.get(tk.advantage))
         tensordict.set(tk.value_target, gae_inputs.get(tk.value_target))
         return tensordict
+
+    def _shifted_next_values(
+        self, tensordict: TensorDictBase, next_td: TensorDictBase, time_dim: int
+    ) -> TensorDictBase:
+        """The fused values of the ``"next"`` observations, from the root's and a few more.
+
+        Step ``t``'s next values are step ``t + 1``'s root values, except where
+        ``"next"`` may hold another observation: where the episode ended or was cut
+        after ``t`` (``done`` at any agent: a world resets as a whole) and at the last
+        step. Only those observations are evaluated.
+        """
+        tk = self.tensor_keys
+        fused_value = self.fused_value()
+        keys = (tk.worker_value, tk.manager_value, tk.value, tk.manager_selected)
+        root = tensordict.select(*keys)
+        next_values = root.apply(lambda value: value.detach().roll(-1, dims=time_dim))
+        done = next_td.get(tk.done)
+        world_done = done.reshape(*tensordict.batch_size, -1).any(-1)
+        evaluate = world_done.clone()
+        evaluate.select(time_dim, -1).fill_(True)
+        inputs = next_td.select(*fused_value.in_keys, strict=False)[evaluate]
+        evaluated = fused_value(inputs).select(*keys)
+        for key in keys:
+            values = next_values.get(key).clone()
+            values[evaluate] = evaluated.get(key).to(values.dtype)
+            next_values.set(key, values)
+        return next_values
 
     def value_estimate(
         self,

@@ -436,3 +436,63 @@ def test_time_dim_named_time(networks: Callable) -> None:
     transposed.refine_names("time", None)
     estimator(worker, manager)(transposed)
     assert_close(transposed[GROUP, "advantage"].transpose(0, 1), data[GROUP, "advantage"])
+
+
+def as_trajectories(data: TensorDict) -> TensorDict:
+    """``data`` made a collector's batch: wherever no agent's episode ended after step
+    ``t``, the root observation (and step counter) of ``t + 1`` is ``t``'s next one."""
+    *batch, steps = data.shape
+    done = data["next", GROUP, "done"].flatten(-2).any(-1)  # [*B, T]: a world resets whole
+    for t in range(steps - 1):
+        goes_on = ~done[..., t]
+        for key in ((GROUP, "observation"), (GROUP, "manager_observation"), ("step_count",)):
+            root, following = data.get(key), data.get(("next", *key))
+            root.select(len(batch), t + 1)[goes_on] = following.select(len(batch), t)[goes_on]
+    return data
+
+
+class RowCounter(torch.nn.Module):
+    """Wraps a network and counts the rows it evaluates."""
+
+    def __init__(self, network: torch.nn.Module) -> None:
+        super().__init__()
+        self.network, self.rows = network, 0
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        self.rows += obs[..., 0, 0].numel()
+        return self.network(obs)
+
+
+@pytest.mark.parametrize("fusion", FUSIONS)
+@pytest.mark.parametrize("batch", [(3,), (2, 3)], ids=["[N,T]", "[B,N,T]"])
+def test_shifted_estimate_equals_two_passes_on_trajectories(
+    networks: Callable, fusion: str, batch: tuple[int, ...]
+) -> None:
+    # The single-pass estimate (critics on the root observations, then only on the
+    # "next" ones after an end, a cut or the last step) equals evaluating both.
+    _, worker, manager = networks()
+    data = as_trajectories(
+        make_batch(batch=batch, steps=11, p_terminated=0.1, p_truncated=0.1, seed=4)
+    )
+    options = {"fusion": fusion, "manager_interval": 2}
+    shifted, full = data.clone(), data.clone()
+    estimator(worker, manager, shifted=True, **options)(shifted)
+    estimator(worker, manager, **options)(full)
+    for key in ("advantage", "value_target", "state_value", "manager_selected"):
+        assert_close(shifted[GROUP, key], full[GROUP, key], rtol=0, atol=1e-6)
+    for key in ("worker_value", "manager_value"):
+        assert_close(shifted["next", GROUP, key], full["next", GROUP, key], rtol=0, atol=1e-6)
+
+
+def test_shifted_estimate_evaluates_next_only_after_ends_and_at_the_last_step(
+    networks: Callable,
+) -> None:
+    _, worker, manager = networks()
+    data = as_trajectories(make_batch(batch=(3,), steps=11, seed=5))
+    counter = RowCounter(worker.module)
+    counted = TensorDictModule(counter, in_keys=worker.in_keys, out_keys=worker.out_keys)
+    estimator(counted, manager, shifted=True)(data)
+    worlds, steps = data.shape
+    ends = int(data["next", GROUP, "done"].flatten(-2).any(-1)[:, :-1].sum())
+    assert 0 < ends < worlds * (steps - 1)
+    assert counter.rows == worlds * steps + ends + worlds
