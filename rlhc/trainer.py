@@ -246,13 +246,14 @@ class Trainer:
         """
         self._set_schedules()
         algo, layout = self.cfg.algo, self.layout
-        stats: dict[str, list[float]] = defaultdict(list)
+        # Scalar tensors, read once at the end: nothing in the loop waits on the device.
+        stats: dict[str, list[torch.Tensor]] = defaultdict(list)
         cut_trajectories(batch, self.groups, layout.time_horizon)
         with torch.no_grad():
             for group, loss in self.losses.items():
                 loss.value_estimator(batch)
                 for key in (STATE_VALUE, WORKER_VALUE, MANAGER_VALUE, MANAGER_SELECTED):
-                    stats[f"{group}/{key}"].append(batch[group, key].float().mean().item())
+                    stats[f"{group}/{key}"].append(batch[group, key].float().mean())
         flat = batch.reshape(-1)
         # Data-parallel: this process's share of every minibatch, from its own worlds.
         share = layout.minibatch_frames // self.strategy.shards
@@ -261,12 +262,14 @@ class Trainer:
             for index in order.split(share):
                 self.backward(flat[index], stats)
                 grad_norm = torch.nn.utils.clip_grad_norm_(self.parameters, algo.max_grad_norm)
-                stats["grad_norm"].append(grad_norm.item())
+                stats["grad_norm"].append(grad_norm.detach())
                 self.optimizer.step()
-        return {name: float(np.mean(values)) for name, values in stats.items()}
+        return {
+            name: float(np.mean(torch.stack(values).tolist())) for name, values in stats.items()
+        }
 
     def backward(
-        self, minibatch: TensorDictBase, stats: dict[str, list[float]] | None = None
+        self, minibatch: TensorDictBase, stats: dict[str, list[torch.Tensor]] | None = None
     ) -> None:
         """Set every parameter's gradient to that of :meth:`minibatch_loss`.
 
@@ -280,7 +283,7 @@ class Trainer:
         self.strategy.reduce_gradients(self.parameters)
 
     def minibatch_loss(
-        self, minibatch: TensorDictBase, stats: dict[str, list[float]] | None = None
+        self, minibatch: TensorDictBase, stats: dict[str, list[torch.Tensor]] | None = None
     ) -> torch.Tensor:
         """The summed PPO loss of every group on a minibatch (advantages already in it).
 

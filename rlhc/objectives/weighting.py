@@ -126,11 +126,12 @@ class WeightedLoss(NamedTuple):
     Attributes:
         total: the sum of the :data:`~rlhc.objectives.ppo.LOSS_KEYS` terms (with gradient).
         diagnostics: :data:`DIAGNOSTICS` the loss wrote, each averaged under the learner
-            weight of this process's share only.
+            weight of this process's share only: detached scalar tensors, so that
+            nothing waits on the device until the caller reads them.
     """
 
     total: Tensor
-    diagnostics: dict[str, float]
+    diagnostics: dict[str, Tensor]
 
 
 def learner_weighted_loss(
@@ -174,7 +175,7 @@ def learner_weighted_loss(
     out = loss(minibatch)
     total = sum(weighted_mean(out[term], weight, total_weight) for term in LOSS_KEYS)
     diagnostics = {
-        key: weighted_mean(out[key].detach().float(), weight).item()
+        key: weighted_mean(out[key].detach().float(), weight)
         for key in DIAGNOSTICS
         if key in out
     }
