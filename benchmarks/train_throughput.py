@@ -24,6 +24,20 @@ the FLOP per frame of the configured networks (:func:`rlhc.flops.training_flops`
 the actors to collect, the value estimator and ``epochs`` forward-backward passes of the
 loss to train).
 
+Before and after a change, in one invocation: ``--baseline REV`` adds the *variant*
+``baseline``, the code at the git revision ``REV`` (checked out once with ``git worktree
+add --detach`` into a temporary directory, removed at the end, and imported by its runs
+through ``cwd`` and ``PYTHONPATH``), next to ``current``, the working tree as each run
+starts. ``--variant NAME=OVERRIDES`` (repeatable) adds a variant of the working tree with
+Hydra overrides appended to every run of it (quote several, space-separated). Every
+round runs each setup once per variant, one after another (baseline, current, then the
+``--variant`` ones in order); each variant's rate is compared with ``baseline``'s (or
+``current``'s without ``--baseline``) of the same round and setup, and the median of those
+per-round ratios is reported with each variant's median share of its ceiling (the
+baseline's FLOP per frame and run length are taken from the working tree's config). The
+Markdown table is printed and the JSON gets a ``comparison`` key; ``summary`` then holds
+``current``'s runs only.
+
 ``--wrapper`` adds the older comparison with the straightforward TorchRL route (the
 game's PettingZoo env in ``PettingZooWrapper`` inside a ``SerialEnv``, same trainer, in
 this process); ``--breakdown`` summarises a py-spy profile instead.
@@ -31,6 +45,10 @@ this process); ``--breakdown`` summarises a py-spy profile instead.
 Examples:
     python benchmarks/train_throughput.py --env soccer tennis --repeats 2
     python benchmarks/train_throughput.py --env soccer --setups one pipeline --updates 21 22
+    python benchmarks/train_throughput.py --env tennis --setups one --repeats 3 \\
+        --baseline HEAD~3 --out /tmp/before_after.json
+    python benchmarks/train_throughput.py --env soccer --setups one --repeats 3 \\
+        --variant ppo=critic=ppo --variant big="model.hidden_size=256 algo.epochs=4"
     python benchmarks/train_throughput.py --env soccer --setups one --wrapper
     py-spy record --format raw -o soccer.txt -- python benchmarks/train_throughput.py \\
         --env soccer --setups one --updates 41 22
@@ -40,12 +58,14 @@ Examples:
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import json
 import multiprocessing
 import os
 import platform
 import re
+import shlex
 import statistics
 import subprocess
 import sys
@@ -53,11 +73,14 @@ import tempfile
 import time
 import warnings
 from collections import Counter
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 RESULTS = Path(__file__).parent / "results" / "train_throughput.json"
-CONF_DIR = Path(__file__).resolve().parents[1] / "conf"
+REPO = Path(__file__).resolve().parents[1]
+CONF_DIR = REPO / "conf"
 TORCHRUN = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2"]
 #: setup -> (processes, overrides)
 SETUPS: dict[str, tuple[int, list[str]]] = {
@@ -69,6 +92,104 @@ SETUPS: dict[str, tuple[int, list[str]]] = {
 }
 #: Setups that need discrete actions.
 DISCRETE_ONLY = ("trunk", "trunk-pipeline")
+#: Variant names the script gives itself: the code at ``--baseline`` and the working tree.
+BASELINE, CURRENT = "baseline", "current"
+VARIANT_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
+VARIANT_FORM = "expected NAME=OVERRIDES (e.g. ppo=critic=ppo; overrides space-separated)"
+
+
+# --- variants: the code and overrides a setup runs with -------------------------------
+@dataclass(frozen=True)
+class Variant:
+    """What one run of a setup executes: a source tree and Hydra overrides appended."""
+
+    name: str
+    overrides: tuple[str, ...] = ()
+    #: The tree ``python -m rlhc.run`` imports ``rlhc`` from; ``None``: the working tree.
+    source: Path | None = None
+
+
+def parse_variant(text: str) -> Variant:
+    """``--variant NAME=OVERRIDES``: a variant of the working tree (argparse ``type``).
+
+    OVERRIDES are Hydra overrides separated by spaces (an empty list runs the working
+    tree again: an A/A check of the noise).
+
+    >>> parse_variant("big=model.hidden_size=256 algo.epochs=4").overrides
+    ('model.hidden_size=256', 'algo.epochs=4')
+    """
+    name, sep, rest = text.partition("=")
+    if not sep or not VARIANT_NAME.fullmatch(name):
+        raise argparse.ArgumentTypeError(f"{text!r}: {VARIANT_FORM}")
+    if name in (BASELINE, CURRENT):
+        raise argparse.ArgumentTypeError(f"{text!r}: the name {name!r} is reserved; {VARIANT_FORM}")
+    try:
+        overrides = tuple(shlex.split(rest))
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(f"{text!r}: {error}; {VARIANT_FORM}") from None
+    bad = [o for o in overrides if "=" not in o and not o.startswith("~")]
+    if bad:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: {bad[0]!r} is not a Hydra override (KEY=VALUE); {VARIANT_FORM}"
+        )
+    return Variant(name, overrides)
+
+
+def source_env(source: Path | None) -> dict[str, str] | None:
+    """The environment of a run importing ``rlhc`` from ``source`` (``None``: inherited)."""
+    if source is None:
+        return None
+    path = os.pathsep.join(p for p in (str(source), os.environ.get("PYTHONPATH", "")) if p)
+    return {**os.environ, "PYTHONPATH": path}
+
+
+def check_source(source: Path) -> None:
+    """Fail unless a run started from ``source`` imports ``source``'s ``rlhc`` package."""
+    done = subprocess.run(
+        [sys.executable, "-c", "import rlhc; print(rlhc.__file__)"],
+        capture_output=True, text=True, cwd=source, env=source_env(source),
+    )  # fmt: skip
+    if done.returncode != 0:
+        raise RuntimeError(f"importing rlhc from {source} failed:\n{done.stderr[-3000:]}")
+    imported = Path(done.stdout.strip()).resolve()
+    if not imported.is_relative_to(source.resolve()):
+        raise RuntimeError(f"a run started in {source} imports {imported}, not the baseline")
+
+
+# --- git: the baseline revision ---------------------------------------------------------
+def git(*args: str) -> str:
+    """``git <args>`` in this repository; its stdout, stripped."""
+    done = subprocess.run(["git", *args], capture_output=True, text=True, cwd=REPO)
+    if done.returncode != 0:
+        raise RuntimeError(f"git {' '.join(args)}: {done.stderr.strip()}")
+    return done.stdout.strip()
+
+
+def resolve_revision(rev: str) -> dict[str, str]:
+    """``rev`` as a full commit hash, with its subject line."""
+    commit = git("rev-parse", "--verify", "--end-of-options", f"{rev}^{{commit}}")
+    return {"rev": rev, "commit": commit, "subject": git("log", "-1", "--format=%s", commit)}
+
+
+def working_tree() -> dict[str, Any]:
+    """What ``current`` ran: HEAD and the tracked files changed in the working tree."""
+    modified = git("diff", "--name-only", "HEAD").splitlines()
+    return {"head": git("rev-parse", "HEAD"), "modified": modified}
+
+
+@contextlib.contextmanager
+def baseline_worktree(commit: str) -> Iterator[Path]:
+    """``commit`` checked out in a temporary ``git worktree``, removed on exit (errors too)."""
+    with tempfile.TemporaryDirectory(prefix="bench_baseline_") as tmp:
+        tree = Path(tmp) / "tree"
+        git("worktree", "add", "--detach", str(tree), commit)
+        try:
+            yield tree
+        finally:
+            try:
+                git("worktree", "remove", "--force", str(tree))
+            except RuntimeError as error:  # the directory goes anyway; `git worktree prune`
+                print(f"warning: {error}", file=sys.stderr)
 
 
 def compose_config(env: str, critic: str, overrides: list[str]) -> Any:
@@ -98,18 +219,31 @@ def bench_overrides(iterations: int, frames_per_batch: int) -> list[str]:
 
 
 # --- processes -------------------------------------------------------------------------
-def run_setup(env: str, critic: str, setup: str, updates: int) -> dict[str, Any]:
-    """Train ``updates`` updates with ``setup``; frames/s from the first logged row on."""
+def run_setup(
+    env: str,
+    critic: str,
+    setup: str,
+    updates: int,
+    variant_overrides: Sequence[str] = (),
+    source: Path | None = None,
+) -> dict[str, Any]:
+    """Train ``updates`` updates with ``setup``; frames/s from the first logged row on.
+
+    ``variant_overrides`` are appended to the command (the last value of a key wins);
+    with ``source``, the run starts in that tree with it on ``PYTHONPATH``, so that it
+    imports that tree's ``rlhc`` (the run directory stays in a temporary directory).
+    """
     from rlhc.builders import Layout
 
     processes, extra = SETUPS[setup]
-    layout = Layout.from_config(compose_config(env, critic, []))
+    layout = Layout.from_config(compose_config(env, critic, list(variant_overrides)))
     overrides = [f"env={env}", f"critic={critic}", *extra,
-                 *run_overrides(updates * layout.frames_per_batch)]  # fmt: skip
+                 *run_overrides(updates * layout.frames_per_batch), *variant_overrides]  # fmt: skip
     launcher = TORCHRUN if processes > 1 else [sys.executable]
     with tempfile.TemporaryDirectory(prefix=f"bench_{setup}_") as tmp:
         command = [*launcher, "-m", "rlhc.run", *overrides, f"hydra.run.dir={tmp}/run"]
-        done = subprocess.run(command, capture_output=True, text=True, cwd=tmp)
+        done = subprocess.run(command, capture_output=True, text=True,
+                              cwd=source or tmp, env=source_env(source))  # fmt: skip
         if done.returncode != 0:
             raise RuntimeError(f"{' '.join(command)} failed:\n{done.stderr[-3000:]}")
         rows = read_metrics(Path(tmp) / "run")
@@ -158,8 +292,16 @@ def gemm_gflops(rows: int, width: int, seconds: float = 1.0) -> float:
     return 2.0 * rows * width * width * count / elapsed / 1e9
 
 
-def ceiling(env: str, critic: str, overrides: list[str]) -> dict[str, Any]:
-    """FLOP per frame of the configured networks and the frames/s one core allows."""
+def ceiling(
+    env: str,
+    critic: str,
+    overrides: list[str],
+    gemm: dict[tuple[int, int], float] | None = None,
+) -> dict[str, Any]:
+    """FLOP per frame of the configured networks and the frames/s one core allows.
+
+    ``gemm`` caches GFLOP/s per GEMM shape: given, a shape measured before is reused.
+    """
     from rlhc.builders import Layout
     from rlhc.flops import training_flops
 
@@ -168,7 +310,10 @@ def ceiling(env: str, critic: str, overrides: list[str]) -> dict[str, Any]:
     cost = training_flops(cfg)
     # The minibatch's rows through a hidden layer: the GEMM an update is made of.
     rows = layout.minibatch_frames * layout.agents_per_world
-    gflops = gemm_gflops(rows, cfg.model.hidden_size)
+    shape, cache = (rows, cfg.model.hidden_size), {} if gemm is None else gemm
+    if shape not in cache:
+        cache[shape] = gemm_gflops(*shape)
+    gflops = cache[shape]
     per_frame = cost.collection + cost.update
     return {"flop_per_frame": per_frame, "collection_flop_per_frame": cost.collection,
             "update_flop_per_frame": cost.update, "gemm_rows": rows,
@@ -413,7 +558,65 @@ def summarise(
     return rows
 
 
-def main() -> None:
+def compare(
+    runs: list[dict[str, Any]], reference: str, ceilings: dict[str, dict[str, float]]
+) -> list[dict[str, Any]]:
+    """Per env, setup and variant: frames/s per round and the median, ratios to ``reference``.
+
+    A ratio divides a run's rate by ``reference``'s run of the same env, setup and round
+    (rounds without one are left out); ``ratio_to_reference`` is the median of those
+    ratios, ``None`` without any. ``ceilings[variant][env]`` is the frames/s one core
+    allows, times the setup's processes for the share.
+    """
+    rows = []
+    for env, setup, variant in dict.fromkeys((r["env"], r["setup"], r["variant"]) for r in runs):
+        mine = sorted(
+            (r for r in runs if (r["env"], r["setup"], r["variant"]) == (env, setup, variant)),
+            key=lambda r: r["round"],
+        )
+        reference_rates = {r["round"]: r["frames_per_s"] for r in runs
+                           if (r["env"], r["setup"], r["variant"]) == (env, setup, reference)}  # fmt: skip
+        ratios = [r["frames_per_s"] / reference_rates[r["round"]]
+                  for r in mine if r["round"] in reference_rates]  # fmt: skip
+        rate = statistics.median(r["frames_per_s"] for r in mine)
+        limit = ceilings[variant][env] * mine[0]["processes"]
+        rows.append({"env": env, "setup": setup, "variant": variant,
+                     "processes": mine[0]["processes"], "rounds": [r["round"] for r in mine],
+                     "per_round": [round(r["frames_per_s"], 1) for r in mine],
+                     "frames_per_s": rate, "reference": reference,
+                     "ratios_per_round": [round(x, 3) for x in ratios],
+                     "ratio_to_reference": statistics.median(ratios) if ratios else None,
+                     "ceiling_frames_per_s": limit, "share_of_ceiling": rate / limit})  # fmt: skip
+    return rows
+
+
+def markdown_table(rows: list[dict[str, Any]]) -> str:
+    """The rows of :func:`compare` as a Markdown table."""
+    reference = rows[0]["reference"] if rows else BASELINE
+    lines = [
+        f"| env | setup | variant | frames/s per round | median | ratio to {reference} "
+        "(median of per-round ratios) | share of ceiling |",
+        "|---|---|---|---|---:|---|---:|",
+    ]
+    for row in rows:
+        ratios = row["ratios_per_round"]
+        if row["variant"] == row["reference"]:
+            ratio = "reference"
+        elif row["ratio_to_reference"] is None:
+            ratio = "n/a"
+        else:
+            ratio = f"{row['ratio_to_reference']:.3f}"
+            if len(ratios) > 1:
+                ratio += f" ({' / '.join(f'{x:.3f}' for x in ratios)})"
+        lines.append(
+            f"| {row['env']} | {row['setup']} | {row['variant']} | "
+            f"{' / '.join(f'{x:,.0f}' for x in row['per_round'])} | "
+            f"{row['frames_per_s']:,.0f} | {ratio} | {row['share_of_ceiling']:.1%} |"
+        )
+    return "\n".join(lines)
+
+
+def make_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", nargs="+", default=["soccer", "tennis"])
     parser.add_argument("--critic", default="hierarchical")
@@ -423,16 +626,33 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=4, help="timed updates, --wrapper")
     parser.add_argument("--warmup", type=int, default=1, help="updates not timed, --wrapper")
     parser.add_argument("--repeats", type=int, default=1, help="rounds over the setups")
+    parser.add_argument("--baseline", metavar="REV",
+                        help="also run the code at this git revision, as the variant 'baseline'")  # fmt: skip
+    parser.add_argument("--variant", action="append", default=[], type=parse_variant,
+                        metavar="NAME=OVERRIDES",
+                        help="also run the working tree with these Hydra overrides appended "
+                             "(space-separated; repeatable)")  # fmt: skip
     parser.add_argument("--wrapper", action="store_true", help="add the PettingZooWrapper route")
     parser.add_argument("--breakdown", type=Path, help="summarise a py-spy raw profile and exit")
-    parser.add_argument("--output", type=Path, default=RESULTS)
-    args = parser.parse_args()
-    if args.breakdown is not None:
-        breakdown(args.breakdown)
-        return
+    parser.add_argument("--output", "--out", type=Path, default=RESULTS)
+    return parser
 
-    load_before = os.getloadavg()
-    ceilings = {env: ceiling(env, args.critic, []) for env in args.env}
+
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
+    """The command line; variant names must be unique."""
+    parser = make_parser()
+    args = parser.parse_args(argv)
+    names = [v.name for v in args.variant]
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        parser.error(f"argument --variant: the name {repeated[0]!r} is given twice")
+    return args
+
+
+def run_rounds(
+    args: argparse.Namespace, variants: list[Variant], label: bool
+) -> list[dict[str, Any]]:
+    """Every round: each env and setup, and within a setup each variant, one after another."""
     runs = []
     for round_ in range(args.repeats):
         for env in args.env:
@@ -441,16 +661,61 @@ def main() -> None:
                 if setup in DISCRETE_ONLY and not discrete:
                     continue
                 updates = args.updates[0] if env == "soccer" else args.updates[1]
-                run = run_setup(env, args.critic, setup, updates)
-                run["round"] = round_
-                runs.append(run)
-                print(f"round {round_} {env:7} {setup:15} {run['frames_per_s']:>8,.0f} frames/s "
-                      f"(env {run['env_steps_per_s']:,.0f} steps/s)", flush=True)  # fmt: skip
+                for variant in variants:
+                    try:
+                        run = run_setup(env, args.critic, setup, updates,
+                                        variant.overrides, variant.source)  # fmt: skip
+                    except RuntimeError as error:
+                        if not label:
+                            raise
+                        raise RuntimeError(f"variant {variant.name}: {error}") from error
+                    run["round"] = round_
+                    name = ""
+                    if label:
+                        run["variant"] = variant.name
+                        name = f"{variant.name:12} "
+                    runs.append(run)
+                    print(f"round {round_} {env:7} {setup:15} {name}{run['frames_per_s']:>8,.0f} "
+                          f"frames/s (env {run['env_steps_per_s']:,.0f} steps/s)", flush=True)  # fmt: skip
+    return runs
+
+
+def main() -> None:
+    args = parse_args()
+    if args.breakdown is not None:
+        breakdown(args.breakdown)
+        return
+
+    comparing = args.baseline is not None or bool(args.variant)
+    revision = None
+    if args.baseline is not None:
+        try:
+            revision = resolve_revision(args.baseline)
+        except RuntimeError as error:
+            raise SystemExit(f"--baseline {args.baseline!r}: {error}") from None
+    load_before = os.getloadavg()
+    ceilings = {env: ceiling(env, args.critic, []) for env in args.env}
+    # Each variant's ceiling: its own FLOP per frame (the working tree's config for the
+    # baseline), GEMM shapes already measured reused.
+    gemm = {(c["gemm_rows"], c["gemm_width"]): c["gemm_gflops_one_core"] for c in ceilings.values()}
+    variant_ceilings = {BASELINE: ceilings, CURRENT: ceilings}
+    for variant in args.variant:
+        variant_ceilings[variant.name] = {
+            env: ceiling(env, args.critic, list(variant.overrides), gemm) for env in args.env
+        }
+    tree_state = working_tree() if comparing else None
+    with contextlib.ExitStack() as stack:
+        variants = [Variant(CURRENT), *args.variant]
+        if revision is not None:
+            tree = stack.enter_context(baseline_worktree(revision["commit"]))
+            check_source(tree)
+            variants.insert(0, Variant(BASELINE, (), tree))
+        runs = run_rounds(args, variants, label=comparing)
     for env in args.env:  # the GEMM rate again, after the runs: the machine may have changed
         ceilings[env]["gemm_gflops_one_core_after"] = gemm_gflops(
             ceilings[env]["gemm_rows"], ceilings[env]["gemm_width"]
         )
-    rows = summarise(runs, ceilings)
+    rows = summarise([r for r in runs if r.get("variant", CURRENT) == CURRENT], ceilings)
     print(
         f"\n{'env':7} {'setup':15} {'procs':>5} {'frames/s':>9} {'vs one':>7} {'ceiling':>9} {'share':>6}"
     )
@@ -466,6 +731,21 @@ def main() -> None:
               f"[{info['gemm_rows']}x{info['gemm_width']}]@[{info['gemm_width']}x{info['gemm_width']}] "
               f"{info['gemm_gflops_one_core']:.1f} GFLOP/s on one core before the runs, "
               f"{info['gemm_gflops_one_core_after']:.1f} after")  # fmt: skip
+    comparison = None
+    if comparing:
+        reference = BASELINE if revision is not None else CURRENT
+        one_core = {name: {env: c["ceiling_frames_per_s_one_core"] for env, c in per_env.items()}
+                    for name, per_env in variant_ceilings.items()}  # fmt: skip
+        table = compare(runs, reference, one_core)
+        print(f"\n{markdown_table(table)}", flush=True)
+        comparison = {
+            "command": shlex.join([Path(sys.executable).name, *sys.argv]),
+            "reference": reference, "order": [v.name for v in variants],
+            "baseline": revision, "current": tree_state,
+            "variants": {v.name: list(v.overrides) for v in args.variant},
+            "variant_ceilings": {v.name: variant_ceilings[v.name] for v in args.variant},
+            "rows": table,
+        }  # fmt: skip
     wrapper = []
     if args.wrapper:
         for env in args.env:
@@ -480,8 +760,11 @@ def main() -> None:
             "loadavg_before": load_before, "loadavg_after": os.getloadavg(),
             "updates": args.updates, "repeats": args.repeats,
             "command": " ".join([Path(sys.executable).name, *sys.argv])}  # fmt: skip
-    write_results(args.output, {"measured": meta, "summary": rows, "ceilings": ceilings,
-                                "runs": runs, "wrapper_route": wrapper})  # fmt: skip
+    payload = {"measured": meta, "summary": rows, "ceilings": ceilings, "runs": runs,
+               "wrapper_route": wrapper}  # fmt: skip
+    if comparison is not None:
+        payload["comparison"] = comparison
+    write_results(args.output, payload)
     print(f"wrote {args.output}")
 
 
