@@ -305,6 +305,7 @@ def make_agents(
             critic_coef=cfg.algo.critic_coef,
             normalize_advantage=cfg.algo.normalize_advantage and not learner_weighted,
             reduction="none" if learner_weighted else "mean",
+            manager_diagnostics=cfg.critic.manager_diagnostics,
             # Collected batches are trajectories: the critics run once per batch.
             shifted=True,
         )

@@ -44,12 +44,16 @@ class CriticConfig:
             (RLHC); ``false`` is the *twin* control (``critic=twin``): a second,
             independently initialised critic on the worker's own observation, so
             that ``max`` is as optimistic as RLHC's without the broader view.
+        manager_diagnostics: with ``fusion=local`` (PPO), still evaluate and train the
+            manager critic and log its value and loss; by default PPO leaves the unused
+            critic out (runs before this setting existed always trained it).
     """
 
     fusion: str = "max"
     weight: float = 0.5
     manager_interval: int = measured_in("decisions", 1)
     manager_view: bool = True
+    manager_diagnostics: bool = False
 
 
 @dataclass

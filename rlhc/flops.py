@@ -63,7 +63,8 @@ class GroupFlops:
         agents: agents of the group in one world (each network runs once per agent).
         actor: the policy.
         worker_critic: ``V_w`` (with a shared trunk: the trunk and the value head).
-        manager_critic: ``V_m``.
+        manager_critic: ``V_m``; 0 where it is not run (PPO without
+            ``critic.manager_diagnostics``).
     """
 
     agents: int
@@ -83,9 +84,10 @@ class TrainingFlops:
 
     Attributes:
         collection: every group's actor, forward (the env's own cost excluded).
-        update: the value estimator (both critics, forward, on the observation and on
-            the next one) plus ``epochs`` passes of the loss (actor and both critics,
-            forward and backward, :data:`FORWARD_BACKWARD` forward passes each).
+        update: the value estimator (the critics, forward, once per observation: the
+            few ``"next"`` observations evaluated again after episode ends and cuts
+            are left out) plus ``epochs`` passes of the loss (actor and critics, forward
+            and backward, :data:`FORWARD_BACKWARD` forward passes each).
     """
 
     collection: int
@@ -122,11 +124,13 @@ def network_flops(cfg: TrainConfig, env: EnvBase | None = None) -> dict[str, Gro
         networks = {
             "actor": loss.actor_network,
             "worker_critic": estimator.worker_value_network,
-            "manager_critic": estimator.manager_value_network,
         }
+        if estimator.runs_manager:
+            networks["manager_critic"] = estimator.manager_value_network
         flops[group] = GroupFlops(
             agents=agents,
-            **{
+            **{"manager_critic": 0}
+            | {
                 name: FLOP_PER_MAC * agents * linear_macs(network)
                 for name, network in networks.items()
             },
@@ -157,6 +161,6 @@ def training_flops(cfg: TrainConfig, env: EnvBase | None = None) -> TrainingFlop
     groups = network_flops(cfg, env).values()
     actors = sum(group.actor for group in groups)
     critics = sum(group.critics for group in groups)
-    estimator = 2 * critics  # V(o_t) and V(o_{t+1}), no gradient
+    estimator = critics  # V(o_t) once per observation (shifted), no gradient
     loss = cfg.algo.epochs * FORWARD_BACKWARD * (actors + critics)
     return TrainingFlops(collection=actors, update=estimator + loss)

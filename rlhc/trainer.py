@@ -253,7 +253,8 @@ class Trainer:
             for group, loss in self.losses.items():
                 loss.value_estimator(batch)
                 for key in (STATE_VALUE, WORKER_VALUE, MANAGER_VALUE, MANAGER_SELECTED):
-                    stats[f"{group}/{key}"].append(batch[group, key].float().mean())
+                    if (group, key) in batch.keys(include_nested=True):  # PPO: no manager
+                        stats[f"{group}/{key}"].append(batch[group, key].float().mean())
         flat = batch.reshape(-1)
         # Data-parallel: this process's share of every minibatch, from its own worlds.
         share = layout.minibatch_frames // self.strategy.shards

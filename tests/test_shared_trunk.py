@@ -212,6 +212,12 @@ def test_network_flops_counts_linear_layers_per_world_decision() -> None:
         actors = sum(f.actor for f in flops.values())
         critics = sum(f.critics for f in flops.values())
         assert cost.collection == actors
-        assert cost.update == 2 * critics + cfg.algo.epochs * FORWARD_BACKWARD * (actors + critics)
+        # The estimator runs the critics once per observation.
+        assert cost.update == critics + cfg.algo.epochs * FORWARD_BACKWARD * (actors + critics)
         env.close()
+    # PPO leaves the manager critic out of the arithmetic, as out of the update.
+    ppo = network_flops(load_smoke("env=soccer", "critic=ppo"))
+    assert all(group.manager_critic == 0 < group.worker_critic for group in ppo.values())
+    kept = network_flops(load_smoke("env=soccer", "critic=ppo", "critic.manager_diagnostics=true"))
+    assert all(group.manager_critic > 0 for group in kept.values())
     assert linear_macs(torch.nn.Linear(3, 5)) == 15

@@ -35,7 +35,7 @@ EXPLAINED_VARIANCE = "explained_variance"
 
 class _CriticTerms(NamedTuple):
     worker: Tensor
-    manager: Tensor
+    manager: Tensor | None  # None: the manager critic is not run (PPO)
     explained_variance: Tensor
 
 
@@ -74,6 +74,10 @@ class HierarchicalPPOLoss(ClipPPOLoss):
     the current fused value), plus detached diagnostics ``loss_worker_critic`` and
     ``loss_manager_critic`` (the two terms, which add up to ``loss_critic``, reduced
     as TorchRL reduces ``loss_critic``). Only :data:`LOSS_KEYS` carry gradient.
+
+    Under ``"local"`` fusion (PPO) the estimator does not run the manager critic unless
+    built with ``manager_diagnostics=True``; the loss then neither evaluates nor trains
+    it: ``loss_critic`` is the worker's term alone and ``loss_manager_critic`` is absent.
 
     Raises:
         ValueError: ``critic_coeff <= 0``, ``clip_value`` or ``separate_losses`` given.
@@ -141,7 +145,7 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             **ppo_kwargs,
         )
         # What the last loss_critic call computed, for forward's diagnostics (detached).
-        self._critic_split: tuple[Tensor, Tensor] | None = None
+        self._critic_split: tuple[Tensor, Tensor | None] | None = None
 
     @property
     def out_keys(self) -> list[str]:
@@ -238,7 +242,8 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             )
         worker, manager = split
         td_out.set(LOSS_WORKER_CRITIC, self._reduce_like_torchrl(worker, tensordict))
-        td_out.set(LOSS_MANAGER_CRITIC, self._reduce_like_torchrl(manager, tensordict))
+        if manager is not None:
+            td_out.set(LOSS_MANAGER_CRITIC, self._reduce_like_torchrl(manager, tensordict))
         return td_out
 
     def loss_critic(self, tensordict: TensorDictBase) -> tuple[Tensor, None, Tensor]:
@@ -255,6 +260,9 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             terms, no value-clip fraction, and the explained variance of ``V_hat``.
         """
         terms = self._critic_terms(tensordict)
+        if terms.manager is None:
+            self._critic_split = (terms.worker.detach(), None)
+            return terms.worker, None, terms.explained_variance
         self._critic_split = (terms.worker.detach(), terms.manager.detach())
         return terms.worker + terms.manager, None, terms.explained_variance
 
@@ -305,16 +313,27 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         # Evaluate on a selection so that the values with gradient are never written
         # into the caller's data. The critics run with their own parameters, which are
         # the very tensors ClipPPOLoss holds (and the optimiser updates).
-        inputs = tensordict.select(*self.critic_network.in_keys, strict=False)
-        values = self.critic_network(inputs)
+        estimator = self.value_estimator
+        hierarchical = isinstance(estimator, HierarchicalValueEstimator)
+        # PPO ("local" fusion) leaves the manager critic out unless asked to run it.
+        critics = (
+            self.critic_network
+            if not hierarchical or estimator.runs_manager
+            else self.critic_network[0]
+        )
+        inputs = tensordict.select(*critics.in_keys, strict=False)
+        values = critics(inputs)
         worker_value = values.get(tk.worker_value)
-        manager_value = values.get(tk.manager_value)
+        manager_value = values.get(tk.manager_value, None)
         worker = self.critic_coeff * distance_loss(target, worker_value, self.loss_critic_type)
-        manager = self.critic_coeff * distance_loss(target, manager_value, self.loss_critic_type)
+        manager = None
+        if manager_value is not None:
+            manager = self.critic_coeff * distance_loss(
+                target, manager_value, self.loss_critic_type
+            )
         with torch.no_grad():
-            if isinstance(self.value_estimator, HierarchicalValueEstimator):
-                fusion = self.value_estimator.fused_value()
-                fused, _ = fusion.fuse(tensordict, worker_value, manager_value)
+            if hierarchical:
+                fused, _ = estimator.fused_value().fuse(tensordict, worker_value, manager_value)
             else:
                 fused = worker_value
             explained = 1.0 - (target - fused).var(correction=0) / (
@@ -340,6 +359,7 @@ def make_ppo_loss(
     normalize_advantage: bool = True,
     loss_critic_type: str = "l2",
     reduction: str = "mean",
+    manager_diagnostics: bool = False,
     shifted: bool = False,
 ) -> HierarchicalPPOLoss:
     """The PPO loss of one group, with its hierarchical value estimator attached.
@@ -364,6 +384,8 @@ def make_ppo_loss(
             ``"none"`` (per-sample terms, e.g. for
             :func:`~rlhc.objectives.weighting.learner_weighted_loss`, which wants
             ``normalize_advantage=False`` too).
+        manager_diagnostics: with ``fusion="local"`` (PPO), still run and train the
+            manager critic (for its logged value); by default PPO leaves it out.
         shifted: the estimator reads trajectories and runs the critics once per batch
             (see :class:`~rlhc.objectives.value.HierarchicalValueEstimator`); the
             trainer's collected batches are.
@@ -427,6 +449,7 @@ def make_ppo_loss(
             weight=weight,
             manager_interval=manager_interval,
             group=group,
+            manager_diagnostics=manager_diagnostics,
             shifted=shifted,
         )
     )

@@ -59,6 +59,9 @@ class FusedValue(TensorDictModuleBase):
         value_key: where ``V_hat`` is written.
         manager_selected_key: where the manager's share of ``V_hat`` is written.
         step_count_key: the episode step counter, read when ``manager_interval > 1``.
+        manager_diagnostics: with ``fusion="local"`` (PPO), run the manager critic anyway
+            and write its value (which ``V_hat`` does not use). ``False``: the manager
+            is neither run nor written under ``"local"``. Other fusions always run it.
 
     Raises:
         ValueError: unknown ``fusion``, ``weight`` outside ``[0, 1]`` or
@@ -88,6 +91,7 @@ class FusedValue(TensorDictModuleBase):
         value_key: NestedKey = keys.STATE_VALUE,
         manager_selected_key: NestedKey = keys.MANAGER_SELECTED,
         step_count_key: NestedKey = keys.STEP_COUNT,
+        manager_diagnostics: bool = True,
     ) -> None:
         check_fusion(fusion, weight)
         check_manager_interval(manager_interval)
@@ -102,11 +106,26 @@ class FusedValue(TensorDictModuleBase):
         self.value_key = value_key
         self.manager_selected_key = manager_selected_key
         self.step_count_key = step_count_key
-        in_keys = [*worker_value_network.in_keys, *manager_value_network.in_keys]
+        #: Whether the manager critic is run: always but under ``"local"`` fusion
+        #: without ``manager_diagnostics``, where ``V_hat`` does not read it.
+        self.runs_manager = fusion != "local" or manager_diagnostics
+        in_keys = list(worker_value_network.in_keys)
+        out_keys = [worker_value_key]
+        if self.runs_manager:
+            in_keys += manager_value_network.in_keys
+            out_keys.append(manager_value_key)
         if manager_interval > 1:
             in_keys.append(step_count_key)
         self.in_keys = list(dict.fromkeys(in_keys))
-        self.out_keys = [worker_value_key, manager_value_key, value_key, manager_selected_key]
+        self.out_keys = [*out_keys, value_key, manager_selected_key]
+
+    def evaluated_critics(self) -> list[tuple[TensorDictModule, NestedKey]]:
+        """The critics this module runs (the manager only if :attr:`runs_manager`),
+        each with the key it writes."""
+        networks = [(self.worker_value_network, self.worker_value_key)]
+        if self.runs_manager:
+            networks.append((self.manager_value_network, self.manager_value_key))
+        return networks
 
     def require_inputs(self, data: TensorDictBase, *, under: tuple[str, ...] = ()) -> None:
         """Raise a ``KeyError`` naming the first input of this module missing from ``data``.
@@ -116,36 +135,33 @@ class FusedValue(TensorDictModuleBase):
             under: where ``data`` sits in the caller's data (e.g. ``("next",)``), so
                 that the message names the full key.
         """
-        for network, key in (
-            (self.worker_value_network, self.worker_value_key),
-            (self.manager_value_network, self.manager_value_key),
-        ):
+        for network, key in self.evaluated_critics():
             for in_key in network.in_keys:
                 require(data, in_key, f"an input of the critic writing {key!r}", under=under)
         if self.manager_interval > 1:
             require(data, self.step_count_key, "the episode step counter", under=under)
 
-    def critic_values(self, data: TensorDictBase) -> tuple[Tensor, Tensor]:
-        """Run both critics on ``data`` (writing their outputs into it).
+    def critic_values(self, data: TensorDictBase) -> tuple[Tensor, Tensor | None]:
+        """Run the critics on ``data`` (writing their outputs into it).
 
         Returns:
-            ``(V_w, V_m)``, each ``[*B, n_agents, 1]``.
+            ``(V_w, V_m)``, each ``[*B, n_agents, 1]``; ``V_m`` is ``None`` where the
+            manager is not run (:attr:`runs_manager`).
 
         Raises:
             KeyError: a critic did not write its output key.
             ValueError: the two values have different shapes.
         """
         outputs = []
-        for network, key in (
-            (self.worker_value_network, self.worker_value_key),
-            (self.manager_value_network, self.manager_value_key),
-        ):
+        for network, key in self.evaluated_critics():
             value = network(data).get(key, None)
             if value is None:
                 raise KeyError(
                     f"the critic did not write {key!r}; its out_keys are {network.out_keys}"
                 )
             outputs.append(value)
+        if not self.runs_manager:
+            return outputs[0], None
         worker_value, manager_value = outputs
         if worker_value.shape != manager_value.shape:
             raise ValueError(
@@ -160,7 +176,7 @@ class FusedValue(TensorDictModuleBase):
         self,
         data: TensorDictBase,
         worker_value: Tensor,
-        manager_value: Tensor,
+        manager_value: Tensor | None,
         *,
         under: tuple[str, ...] = (),
     ) -> tuple[Tensor, Tensor]:
@@ -174,7 +190,8 @@ class FusedValue(TensorDictModuleBase):
             data: the (root or ``"next"``) data the values belong to; read for the step
                 counter only, and only when ``manager_interval > 1``.
             worker_value: ``V_w`` on that data, ``[*B, n_agents, 1]``.
-            manager_value: ``V_m`` on that data, the same shape.
+            manager_value: ``V_m`` on that data, the same shape; ``None`` where the
+                manager is not run (``"local"`` fusion reads ``V_w`` only).
             under: where ``data`` sits in the caller's data, for error messages.
 
         Returns:
@@ -193,6 +210,10 @@ class FusedValue(TensorDictModuleBase):
             >>> fused[:, 0, 0]  # the manager is consulted at step 0 only
             tensor([1., 0.])
         """
+        if manager_value is None:
+            if self.fusion != "local":
+                raise ValueError(f"fusion {self.fusion!r} needs the manager's value")
+            return worker_value, torch.zeros_like(worker_value)
         consulted = None
         if self.manager_interval > 1:
             # Temporal scaling: the manager speaks at steps 0, k, 2k, ... of each episode.
@@ -232,7 +253,7 @@ class FusedValue(TensorDictModuleBase):
     def extra_repr(self) -> str:
         return (
             f"fusion={self.fusion!r}, weight={self.weight}, "
-            f"manager_interval={self.manager_interval}"
+            f"manager_interval={self.manager_interval}, runs_manager={self.runs_manager}"
         )
 
 
@@ -279,6 +300,9 @@ class HierarchicalValueEstimator(GAE):
         time_dim: the time dimension of the input; by default the one named ``"time"``,
             else the last batch dimension (the collector's ``[N_envs, T]`` layout).
         skip_existing: forwarded to the critics, as in TorchRL's estimators.
+        manager_diagnostics: with ``fusion="local"`` (PPO), run the manager critic
+            anyway and write its value, as :class:`FusedValue`; ``False`` (the default)
+            leaves it out there, and the loss then does not train it either.
         shifted: the data are trajectories (a collector's ``[*B, T]`` batch): the
             ``"next"`` observation of step ``t`` is the root observation of ``t + 1``
             wherever the episode goes on. The critics then run once on the root
@@ -397,6 +421,7 @@ class HierarchicalValueEstimator(GAE):
         differentiable: bool = False,
         time_dim: int | None = None,
         skip_existing: bool | None = None,
+        manager_diagnostics: bool = False,
         shifted: bool = False,
     ) -> None:
         check_fusion(fusion, weight)
@@ -417,6 +442,7 @@ class HierarchicalValueEstimator(GAE):
         self.fusion = fusion
         self.weight = float(weight)
         self.manager_interval = manager_interval
+        self.manager_diagnostics = manager_diagnostics
         self.group = group
         # (what it was built from, the FusedValue): a tuple, so not registered either.
         self._fused: tuple[tuple[object, ...], FusedValue] | None = None
@@ -443,6 +469,12 @@ class HierarchicalValueEstimator(GAE):
         """``V_m``, the manager critic (borrowed)."""
         return self.critics[1]
 
+    @property
+    def runs_manager(self) -> bool:
+        """Whether the manager critic is evaluated (all but ``"local"`` fusion without
+        ``manager_diagnostics``)."""
+        return self.fusion != "local" or self.manager_diagnostics
+
     def fused_value(self) -> FusedValue:
         """The two critics and their fusion as one TensorDict module, on this estimator's keys.
 
@@ -464,6 +496,7 @@ class HierarchicalValueEstimator(GAE):
             self.fusion,
             self.weight,
             self.manager_interval,
+            self.manager_diagnostics,
         )
         if self._fused is None or self._fused[0] != built_from:
             fused_value = FusedValue(
@@ -477,6 +510,7 @@ class HierarchicalValueEstimator(GAE):
                 value_key=tk.value,
                 manager_selected_key=tk.manager_selected,
                 step_count_key=tk.step_count,
+                manager_diagnostics=self.manager_diagnostics,
             )
             self._fused = (built_from, fused_value)
         return self._fused[1]
@@ -484,7 +518,9 @@ class HierarchicalValueEstimator(GAE):
     @property
     def in_keys(self) -> list[NestedKey]:
         tk = self.tensor_keys
-        observed = [*self.worker_value_network.in_keys, *self.manager_value_network.in_keys]
+        observed = list(self.worker_value_network.in_keys)
+        if self.runs_manager:
+            observed += self.manager_value_network.in_keys
         in_keys = [
             *observed,
             *(("next", *as_tuple(key)) for key in observed),
@@ -499,14 +535,10 @@ class HierarchicalValueEstimator(GAE):
     @property
     def out_keys(self) -> list[NestedKey]:
         tk = self.tensor_keys
-        return [
-            tk.advantage,
-            tk.value_target,
-            tk.value,
-            tk.worker_value,
-            tk.manager_value,
-            tk.manager_selected,
-        ]
+        critics = [tk.worker_value]
+        if self.runs_manager:
+            critics.append(tk.manager_value)
+        return [tk.advantage, tk.value_target, tk.value, *critics, tk.manager_selected]
 
     @dispatch
     def forward(
@@ -576,7 +608,7 @@ class HierarchicalValueEstimator(GAE):
                     # A shallow copy keeps V_hat(s_{t+1}) out of the data.
                     next_values = fused_value(next_td.copy())
         # The critics' own values of the next observations, under "next".
-        next_td.update(next_values.select(tk.worker_value, tk.manager_value))
+        next_td.update(next_values.select(tk.worker_value, tk.manager_value, strict=False))
 
         value = tensordict.get(tk.value)
         reward, done, terminated = (
@@ -606,12 +638,11 @@ class HierarchicalValueEstimator(GAE):
         after ``t`` (``done`` at any agent: a world resets as a whole) and at the last
         step. Only those observations are evaluated.
         """
-        tk = self.tensor_keys
         fused_value = self.fused_value()
-        keys = (tk.worker_value, tk.manager_value, tk.value, tk.manager_selected)
+        keys = fused_value.out_keys
         root = tensordict.select(*keys)
         next_values = root.apply(lambda value: value.detach().roll(-1, dims=time_dim))
-        done = next_td.get(tk.done)
+        done = next_td.get(self.tensor_keys.done)
         world_done = done.reshape(*tensordict.batch_size, -1).any(-1)
         evaluate = world_done.clone()
         evaluate.select(time_dim, -1).fill_(True)

@@ -175,8 +175,6 @@ def learner_weighted_loss(
     out = loss(minibatch)
     total = sum(weighted_mean(out[term], weight, total_weight) for term in LOSS_KEYS)
     diagnostics = {
-        key: weighted_mean(out[key].detach().float(), weight)
-        for key in DIAGNOSTICS
-        if key in out
+        key: weighted_mean(out[key].detach().float(), weight) for key in DIAGNOSTICS if key in out
     }
     return WeightedLoss(total, diagnostics)  # type: ignore[arg-type]

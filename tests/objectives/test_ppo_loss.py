@@ -301,3 +301,26 @@ def test_separate_losses_is_refused(networks: Callable) -> None:
     actor, worker, manager = networks()
     with pytest.raises(ValueError, match="separate_losses is not supported"):
         HierarchicalPPOLoss(actor, worker, manager, separate_losses=True)
+
+
+def test_ppo_neither_runs_nor_trains_the_manager_unless_asked(networks: Callable) -> None:
+    # fusion="local" (PPO): the actor's and the worker critic's gradients are those of
+    # the loss that also trains the manager (manager_diagnostics=True); the manager
+    # gets none, and no manager term is reported.
+    ppo = build_loss(networks, fusion="local")
+    kept = build_loss(networks, fusion="local", manager_diagnostics=True)
+    data = collected(ppo)
+    grads = []
+    for loss in (ppo, kept):
+        torch.manual_seed(1)  # the same samples of the TanhNormal's entropy estimate
+        out = loss(data.clone())
+        sum(out[key] for key in LOSS_KEYS).backward()
+        grads.append({name: p.grad for name, p in loss.named_parameters()})
+    assert "loss_manager_critic" not in ppo(data.clone())
+    assert "loss_manager_critic" in kept(data.clone())
+    manager = [name for name in grads[0] if "critic_network_params.module.1." in name]
+    assert manager and all(grads[0][name] is None for name in manager)
+    assert all(grads[1][name] is not None for name in manager)
+    for name, grad in grads[0].items():
+        if name not in manager:
+            assert_close(grad, grads[1][name], rtol=0, atol=1e-6, msg=name)

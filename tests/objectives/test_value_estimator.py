@@ -106,7 +106,11 @@ def test_the_estimator_equals_the_functional_reference(
     # tensors; it is itself checked against the plain loop and closed forms.
     _, worker, manager = networks()
     data = make_batch(batch=(2, 3), steps=9, p_terminated=0.2, p_truncated=0.2, seed=4)
-    estimator(worker, manager, fusion=fusion, weight=0.3, manager_interval=interval)(data)
+    # manager_diagnostics: "local" writes V_m too, which the reference reads.
+    estimator(
+        worker, manager, fusion=fusion, weight=0.3, manager_interval=interval,
+        manager_diagnostics=True,
+    )(data)  # fmt: skip
     nxt = data["next"]
 
     def consulted(step_count: torch.Tensor) -> torch.Tensor:
@@ -474,7 +478,7 @@ def test_shifted_estimate_equals_two_passes_on_trajectories(
     data = as_trajectories(
         make_batch(batch=batch, steps=11, p_terminated=0.1, p_truncated=0.1, seed=4)
     )
-    options = {"fusion": fusion, "manager_interval": 2}
+    options = {"fusion": fusion, "manager_interval": 2, "manager_diagnostics": True}
     shifted, full = data.clone(), data.clone()
     estimator(worker, manager, shifted=True, **options)(shifted)
     estimator(worker, manager, **options)(full)
@@ -496,3 +500,28 @@ def test_shifted_estimate_evaluates_next_only_after_ends_and_at_the_last_step(
     ends = int(data["next", GROUP, "done"].flatten(-2).any(-1)[:, :-1].sum())
     assert 0 < ends < worlds * (steps - 1)
     assert counter.rows == worlds * steps + ends + worlds
+
+
+@pytest.mark.parametrize("shifted", [False, True])
+def test_local_fusion_leaves_the_manager_out_unless_asked(
+    networks: Callable, shifted: bool
+) -> None:
+    # PPO's V_hat is V_w: without manager_diagnostics the manager critic is not run and
+    # its value not written; the estimate is the same either way.
+    _, worker, manager = networks()
+    data = as_trajectories(make_batch(batch=(3,), steps=11, seed=6))
+    counter = RowCounter(manager.module)
+    counted = TensorDictModule(counter, in_keys=manager.in_keys, out_keys=manager.out_keys)
+    without, with_manager = data.clone(), data.clone()
+    ppo = estimator(worker, counted, fusion="local", shifted=shifted)
+    ppo(without)
+    assert counter.rows == 0
+    assert (GROUP, "manager_value") not in without.keys(include_nested=True)
+    assert (GROUP, "manager_value") not in ppo.out_keys
+    assert (GROUP, "manager_observation") not in ppo.in_keys
+    estimator(worker, counted, fusion="local", shifted=shifted, manager_diagnostics=True)(
+        with_manager
+    )
+    assert counter.rows > 0
+    for key in ("advantage", "value_target", "state_value", "manager_selected"):
+        assert_close(without[GROUP, key], with_manager[GROUP, key], rtol=0, atol=0)
