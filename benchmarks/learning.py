@@ -122,6 +122,15 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         # beta and epsilon decay over 10 M (the paper's runs still gain when their lr
         # reaches 0 at 3.6 M), a checkpoint every 250 K.
         "long": ("algo.max_steps=10000000", "checkpoint_freq=250000"),
+        # probe_gaussian_lr_epochs with the paper's decay over its 10 M (that probe peaks
+        # at 10 hits per point near 7 M and falls back at a constant lr, its scale growing).
+        "long_gaussian": (
+            *GAUSSIAN_POLICY,
+            "algo.lr=1e-3",
+            "algo.epochs=6",
+            "algo.max_steps=10000000",
+            "checkpoint_freq=250000",
+        ),
     },
     "soccer": {
         "paper": (),  # Table 3 as composed by conf/table3/soccer.yaml
