@@ -4,6 +4,12 @@ Every yaml file in ``conf/`` names one of these schemas in its defaults list, so
 misspelt key or a value of the wrong type fails before anything is built. The
 paper's Table 3 values live only in ``conf/table3/<env>.yaml`` (the schemas mark them
 ``MISSING``); the defaults here are the settings the paper does not give.
+
+Every section of the config has its schema here, the league's and the shaping's
+included (their code: :mod:`rlhc.league`, :mod:`rlhc.shaping`), so that the schemas and
+their checks (:mod:`rlhc.validation`) import nothing of the code they configure; only
+the game options (:mod:`rlhc.envs.config`) and the network settings
+(:mod:`rlhc.modules.config`), which their own layers read, live there.
 """
 
 from __future__ import annotations
@@ -15,9 +21,7 @@ from typing import Any
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, OmegaConf
 
-from rlhc.league import LeagueConfig
 from rlhc.modules.config import NetworkConfig
-from rlhc.shaping import ShapingConfig
 
 #: ``resume=auto``: continue from the run directory's own checkpoint, if it holds one.
 RESUME_AUTO = "auto"
@@ -192,6 +196,55 @@ class LoggerConfig:
     progress: bool | None = None
     wandb_project: str = "rlhc"
     wandb_mode: str = "auto"
+
+
+@dataclass
+class LeagueConfig:
+    """Who the learning team plays (the shares of the training worlds; beyond the paper).
+
+    Attributes:
+        self_play: share of worlds where both teams are the learning policy.
+        snapshot: share of worlds against frozen past learners.
+        scripted: share of worlds against the scripted team.
+        random: share of worlds against the random team.
+        pool_size: snapshots kept (the newest; the oldest is dropped).
+        snapshot_interval: updates between two snapshots (the first after this many).
+        sampling: ``uniform`` over the pool, or ``elo``: a snapshot with probability
+            proportional to its expected score against the learner (harder ones more).
+    """
+
+    self_play: float = 1.0
+    snapshot: float = 0.0
+    scripted: float = 0.0
+    random: float = 0.0
+    pool_size: int = 10
+    snapshot_interval: int = 10
+    sampling: str = "uniform"
+
+    @property
+    def shares(self) -> dict[str, float]:
+        return {
+            "self": self.self_play,
+            "snapshot": self.snapshot,
+            "scripted": self.scripted,
+            "random": self.random,
+        }
+
+    @property
+    def active(self) -> bool:
+        """Whether any world plays someone other than the learner itself."""
+        return self.self_play < 1.0
+
+
+@dataclass
+class ShapingConfig:
+    """Potential-based shaping (beyond the paper).
+
+    Attributes:
+        scale: the potential's weight ``c`` (``F = c (γ Φ(s') − Φ(s))``); 0 turns it off.
+    """
+
+    scale: float = 0.0
 
 
 @dataclass

@@ -39,56 +39,18 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 from torchrl.envs import EnvBase
 
+from rlhc.config import LeagueConfig
 from rlhc.envs.keys import ACTION, DONE, LEARNER, NEXT, OBSERVATION, SCORING_TEAM, STEP_COUNT, TEAM
 from rlhc.envs.torchrl_adapter import BatchedGameEnv, batched_game_env
 from rlhc.evaluation.elo import INITIAL_RATING, K_FACTOR, elo_update, expected_score
 from rlhc.evaluation.teams import RandomPolicy, ScriptedPolicy, TeamPolicy
 
 KINDS = ("self", "snapshot", "scripted", "random")
-SAMPLING = ("uniform", "elo")
 #: Root keys the league policy writes at every step (stored by the collector).
 OPPONENT = "league_opponent"
 LEARNER_TEAM = "league_learner_team"
 #: Opponent ids of the built-in teams (snapshots count up from 0; self-play is -1).
 SELF_ID, SCRIPTED_ID, RANDOM_ID = -1, -2, -3
-
-
-@dataclass
-class LeagueConfig:
-    """Who the learning team plays (the shares of the training worlds; beyond the paper).
-
-    Attributes:
-        self_play: share of worlds where both teams are the learning policy.
-        snapshot: share of worlds against frozen past learners.
-        scripted: share of worlds against the scripted team.
-        random: share of worlds against the random team.
-        pool_size: snapshots kept (the newest; the oldest is dropped).
-        snapshot_interval: updates between two snapshots (the first after this many).
-        sampling: ``uniform`` over the pool, or ``elo``: a snapshot with probability
-            proportional to its expected score against the learner (harder ones more).
-    """
-
-    self_play: float = 1.0
-    snapshot: float = 0.0
-    scripted: float = 0.0
-    random: float = 0.0
-    pool_size: int = 10
-    snapshot_interval: int = 10
-    sampling: str = "uniform"
-
-    @property
-    def shares(self) -> dict[str, float]:
-        return {
-            "self": self.self_play,
-            "snapshot": self.snapshot,
-            "scripted": self.scripted,
-            "random": self.random,
-        }
-
-    @property
-    def active(self) -> bool:
-        """Whether any world plays someone other than the learner itself."""
-        return self.self_play < 1.0
 
 
 def allocate_worlds(shares: Mapping[str, float], num_worlds: int) -> np.ndarray:

@@ -17,7 +17,6 @@ reward, and the learning curves of a shaped run compare with unshaped ones.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 import torch
@@ -25,20 +24,9 @@ from tensordict import TensorDictBase
 from torchrl.envs import Transform
 
 from rlhc.envs.keys import REWARD, TERMINATED
-from rlhc.envs.registry import game_spec, games
+from rlhc.envs.registry import game_spec, games, shapable_games
 
 Potential = Callable[[], dict[str, np.ndarray]]
-
-
-@dataclass
-class ShapingConfig:
-    """Potential-based shaping (beyond the paper).
-
-    Attributes:
-        scale: the potential's weight ``c`` (``F = c (γ Φ(s') − Φ(s))``); 0 turns it off.
-    """
-
-    scale: float = 0.0
 
 
 def game_potential(game: object) -> Potential:
@@ -55,11 +43,6 @@ def game_potential(game: object) -> Potential:
             f"(games with one: {', '.join(shapable_games())})"
         )
     return lambda: potential(game)  # type: ignore[arg-type]
-
-
-def shapable_games() -> list[str]:
-    """The registered games that have a shaping potential."""
-    return [name for name in games() if game_spec(name).potential is not None]
 
 
 class PotentialShaping(Transform):

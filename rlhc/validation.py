@@ -16,14 +16,13 @@ import math
 import torch
 import torch.distributed as dist
 
-from rlhc.config import LoggerConfig, TrainConfig
+from rlhc.config import LeagueConfig, LoggerConfig, TrainConfig
 from rlhc.envs import games
+from rlhc.envs.registry import shapable_games
 from rlhc.envs.tennis.rules import FAULT_PENALTIES
 from rlhc.errors import ConfigError
 from rlhc.evaluation.config import MODES, EvaluateConfig
-from rlhc.league import SAMPLING, LeagueConfig
 from rlhc.objectives import FUSIONS
-from rlhc.shaping import shapable_games
 
 __all__ = ["ConfigError", "validate", "validate_evaluate"]
 
@@ -33,6 +32,8 @@ BACKENDS = ("csv", "tensorboard", "wandb")
 WANDB_MODES = ("auto", "online", "offline", "disabled")
 #: How the processes of a ``torchrun`` run share it (``parallel``; rlhc.distributed).
 PARALLEL_MODES = ("data", "pipeline")
+#: How the league draws a snapshot to play (``league.sampling``; rlhc.league).
+SAMPLING = ("uniform", "elo")
 
 
 def validate(cfg: TrainConfig, processes: int = 1) -> None:

@@ -12,6 +12,7 @@ from hydra.errors import ConfigCompositionException
 from torchrl.collectors import Collector
 
 from rlhc.checkpoint import load_checkpoint
+from rlhc.config import LeagueConfig
 from rlhc.envs import games
 from rlhc.errors import ConfigError
 from rlhc.evaluation.elo import expected_score
@@ -23,7 +24,6 @@ from rlhc.league import (
     SCRIPTED_ID,
     SELF_ID,
     League,
-    LeagueConfig,
     allocate_worlds,
 )
 from rlhc.trainer import Trainer

@@ -164,6 +164,16 @@ def game_spec(name: str) -> GameSpec:
     return _SPECS[name]
 
 
+def shapable_games() -> list[str]:
+    """The registered games that have a shaping potential (``shaping.scale > 0`` needs one).
+
+    Examples:
+        >>> shapable_games()
+        ['soccer']
+    """
+    return [name for name in games() if game_spec(name).potential is not None]
+
+
 class GameTable(Mapping[str, GameSpec]):
     """A read-only view ``name -> GameSpec`` of the registry (games found on first use)."""
 
@@ -184,4 +194,13 @@ class GameTable(Mapping[str, GameSpec]):
 #: ``name -> GameSpec`` of every registered game.
 GAMES: Mapping[str, GameSpec] = GameTable()
 
-__all__ = ["GAMES", "GameSpec", "GameTable", "ScriptedTeam", "game_spec", "games", "register_game"]
+__all__ = [
+    "GAMES",
+    "GameSpec",
+    "GameTable",
+    "ScriptedTeam",
+    "game_spec",
+    "games",
+    "register_game",
+    "shapable_games",
+]
