@@ -198,7 +198,7 @@ def compose_config(env: str, critic: str, overrides: list[str]) -> Any:
     from hydra.core.global_hydra import GlobalHydra
     from omegaconf import OmegaConf
 
-    from rlhc.config import register_configs
+    from rlhc.config.train_schema import register_configs
 
     register_configs()
     GlobalHydra.instance().clear()

@@ -1,4 +1,4 @@
-"""Factories that turn a validated :class:`~rlhc.config.TrainConfig` into objects.
+"""Factories that turn a validated :class:`~rlhc.config.train_schema.TrainConfig` into objects.
 
 Shared by the trainer and the evaluation tools, so that a checkpoint's config rebuilds
 exactly the networks that were trained.
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import torch
 from torchrl.envs import Compose, EnvBase, RewardSum, TransformedEnv, VecNormV2
 
-from rlhc.config import TrainConfig
+from rlhc.config.train_schema import TrainConfig
 from rlhc.envs import make_env, make_game
 from rlhc.envs.keys import EPISODE_REWARD, MANAGER_OBSERVATION, OBSERVATION, REWARD
 from rlhc.errors import ConfigError
@@ -208,7 +208,7 @@ def network_config(cfg: TrainConfig) -> NetworkConfig:
     """The network shape of ``cfg.model`` (the same for every group).
 
     Examples:
-        >>> from rlhc.config import ModelConfig, TrainConfig
+        >>> from rlhc.config.train_schema import ModelConfig, TrainConfig
         >>> model = ModelConfig(num_layers=2, hidden_size=64, activation="silu", action_dist="gaussian")
         >>> net = network_config(TrainConfig(model=model))
         >>> net.hidden_size, net.action_dist, net.shared_trunk

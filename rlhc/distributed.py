@@ -42,7 +42,7 @@ import torch
 import torch.distributed as dist
 from tensordict import TensorDictBase
 
-from rlhc.validation import backend, check_parallel
+from rlhc.config.validation import backend, check_parallel
 
 #: Rank 0 of a pipeline updates; rank 1 collects.
 LEARNER_RANK = 0
@@ -118,7 +118,7 @@ def setup(mode: str, device: str, league_active: bool) -> Processes:
     """Join the processes ``torchrun`` started (a no-op for one process).
 
     Raises:
-        ConfigError: see :func:`rlhc.validation.check_parallel`.
+        ConfigError: see :func:`rlhc.config.validation.check_parallel`.
     """
     size = launched_size()
     check_parallel(mode, size, device, league_active)

@@ -2,7 +2,7 @@
 
 Every check of a setting raises :class:`ConfigError`, naming the key, its value and
 what is allowed; ``rlhc.run`` reports it in one line (exit 2). The checks themselves
-live in :mod:`rlhc.validation` (a whole config) and in the network schema
+live in :mod:`rlhc.config.validation` (a whole config) and in the network schema
 (:class:`rlhc.modules.NetworkConfig`, which networks built without a config use).
 """
 

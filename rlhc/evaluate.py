@@ -31,9 +31,9 @@ from omegaconf import DictConfig, OmegaConf
 from rlhc.checkpoint import seed_everything
 from rlhc.cli.hydra_hooks import PreflightFailed
 from rlhc.cli.report import HYDRA_USER_ERRORS, user_errors_in_one_line
-from rlhc.config import CONFIG_DIR
+from rlhc.config.evaluate_schema import EvaluateConfig, register_evaluate_configs
+from rlhc.config.train_schema import CONFIG_DIR
 from rlhc.evaluation.commands import check_evaluation, run_elo, run_match
-from rlhc.evaluation.config import EvaluateConfig, register_evaluate_configs
 
 PROGRAM = "rlhc.evaluate"
 

@@ -20,7 +20,7 @@ from torch import nn
 from torchrl.envs import EnvBase
 
 from rlhc.builders import make_agents
-from rlhc.config import TrainConfig
+from rlhc.config.train_schema import TrainConfig
 from rlhc.envs import make_env
 from rlhc.modules.specs import observation_size
 
@@ -109,7 +109,7 @@ def network_flops(cfg: TrainConfig, env: EnvBase | None = None) -> dict[str, Gro
         rlhc.builders.ConfigError: ``model.shared_trunk=true`` on continuous actions.
 
     Examples:
-        >>> from rlhc.config import compose_config
+        >>> from rlhc.config.train_schema import compose_config
         >>> cfg = compose_config("env=soccer")
         >>> sorted(network_flops(cfg))
         ['goalie', 'striker']
@@ -152,7 +152,7 @@ def training_flops(cfg: TrainConfig, env: EnvBase | None = None) -> TrainingFlop
         A :class:`TrainingFlops`.
 
     Examples:
-        >>> from rlhc.config import compose_config
+        >>> from rlhc.config.train_schema import compose_config
         >>> cfg = compose_config("env=soccer")
         >>> cost = training_flops(cfg)
         >>> cost.update > cost.collection > 0

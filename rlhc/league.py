@@ -39,7 +39,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 from torchrl.envs import EnvBase
 
-from rlhc.config import LeagueConfig
+from rlhc.config.train_schema import LeagueConfig
 from rlhc.envs.keys import ACTION, DONE, LEARNER, NEXT, OBSERVATION, SCORING_TEAM, STEP_COUNT, TEAM
 from rlhc.envs.torchrl_adapter import BatchedGameEnv, batched_game_env
 from rlhc.evaluation.elo import INITIAL_RATING, K_FACTOR, elo_update, expected_score

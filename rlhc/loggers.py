@@ -27,9 +27,9 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from rlhc.config import LoggerConfig
+from rlhc.config.train_schema import LoggerConfig
+from rlhc.config.validation import WANDB_MODES, check_logger
 from rlhc.errors import ConfigError
-from rlhc.validation import WANDB_MODES, check_logger
 
 METRICS_FILE = "metrics.csv"
 TENSORBOARD_DIR = "tb"

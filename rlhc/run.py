@@ -59,7 +59,7 @@ from rlhc.cli.cleanup import (
 from rlhc.cli.hydra_hooks import USER_ERRORS, PreflightFailed
 from rlhc.cli.report import shown, user_errors_in_one_line
 from rlhc.cli.start import forget_checked, take_checked
-from rlhc.config import CONFIG_DIR, register_configs
+from rlhc.config.train_schema import CONFIG_DIR, register_configs
 from rlhc.distributed import broadcast_object, launched_rank, launched_size, setup, shutdown
 from rlhc.interrupt import TrainingInterrupted
 from rlhc.trainer import Trainer

@@ -24,7 +24,7 @@ from torchrl.envs import EnvBase, Transform
 from tqdm import tqdm
 from tqdm.contrib.logging import logging_redirect_tqdm
 
-from rlhc.config import TrainConfig
+from rlhc.config.train_schema import TrainConfig
 from rlhc.envs import make_env
 from rlhc.envs.keys import DONE, EPISODE_REWARD, INFO, NEXT, STEP_COUNT, TERMINATED
 from rlhc.loggers import ProgressLines

@@ -5,7 +5,7 @@ group from every world, :meth:`Trainer.update` on them (estimate fused values an
 advantages per group, then ``epochs`` passes of minibatch PPO), log, checkpoint. Both
 teams of a game share each group's policy (symmetric self-play).
 
-Units are ML-Agents 0.5's, the trainer the paper ran (see :class:`~rlhc.config.PPOConfig`
+Units are ML-Agents 0.5's, the trainer the paper ran (see :class:`~rlhc.config.train_schema.PPOConfig`
 and :class:`~rlhc.builders.Layout`): the budget, summary and checkpoint periods count
 world-decisions ("frames"), buffer and minibatch count agent-experiences per group.
 
@@ -40,7 +40,8 @@ from rlhc.builders import (
     trainable_parameters,
 )
 from rlhc.checkpoint import CHECKPOINT_DIR, save_checkpoint, seed_everything
-from rlhc.config import TrainConfig, schedules
+from rlhc.config.train_schema import TrainConfig, schedules
+from rlhc.config.validation import validate
 from rlhc.distributed import Processes
 from rlhc.envs.keys import MANAGER_SELECTED, MANAGER_VALUE, STATE_VALUE, WORKER_VALUE
 from rlhc.final_team import save_team
@@ -58,7 +59,6 @@ from rlhc.training_state import (
     restore_training_state,
     training_state,
 )
-from rlhc.validation import validate
 
 log = logging.getLogger(__name__)
 

@@ -33,7 +33,7 @@ from rlhc.checkpoint import (
     rng_states,
     set_rng_states,
 )
-from rlhc.config import TrainConfig
+from rlhc.config.train_schema import TrainConfig
 from rlhc.envs.torchrl_adapter import batched_game_env
 from rlhc.league import League
 

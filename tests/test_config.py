@@ -7,7 +7,7 @@ from configs import load, options
 from hydra.errors import ConfigCompositionException
 from omegaconf.errors import ConfigKeyError, ValidationError
 
-from rlhc.config import TrainConfig
+from rlhc.config.train_schema import TrainConfig
 from rlhc.envs.config import SoccerEnvConfig, TennisEnvConfig
 
 

@@ -22,9 +22,9 @@ from configs import ROOT, load_smoke
 from rlhc.builders import ConfigError, Layout
 from rlhc.checkpoint import CHECKPOINT_DIR
 from rlhc.cli.start import preflight
+from rlhc.config.validation import PARALLEL_MODES as MODES
+from rlhc.config.validation import check_parallel as check
 from rlhc.distributed import Processes
-from rlhc.validation import PARALLEL_MODES as MODES
-from rlhc.validation import check_parallel as check
 
 TORCHRUN = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2"]
 

@@ -19,7 +19,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 
 from rlhc.checkpoint import CHECKPOINT_DIR, load_checkpoint, step_of
-from rlhc.config import TrainConfig, register_configs
+from rlhc.config.train_schema import TrainConfig, register_configs
 from rlhc.interrupt import StopSignals, TrainingInterrupted
 from rlhc.trainer import Trainer
 

@@ -12,7 +12,8 @@ from hydra.errors import ConfigCompositionException
 from torchrl.collectors import Collector
 
 from rlhc.checkpoint import load_checkpoint
-from rlhc.config import LeagueConfig
+from rlhc.config.train_schema import LeagueConfig
+from rlhc.config.validation import validate
 from rlhc.envs import games
 from rlhc.errors import ConfigError
 from rlhc.evaluation.elo import expected_score
@@ -27,7 +28,6 @@ from rlhc.league import (
     allocate_worlds,
 )
 from rlhc.trainer import Trainer
-from rlhc.validation import validate
 
 
 # --- shares ---------------------------------------------------------------------------

@@ -163,16 +163,16 @@ def test_the_quick_start_commands_run_as_written(tmp_path: Path) -> None:
 
 
 def test_the_configuration_table_is_the_generated_one() -> None:
-    """README's table is what ``python -m rlhc.config_table`` prints (no drift)."""
-    from rlhc.config_table import README, readme_copy, table
+    """README's table is what ``python -m rlhc.config.table`` prints (no drift)."""
+    from rlhc.config.table import README, readme_copy, table
 
     assert readme_copy(README.read_text()) == table(), (
-        "README.md's configuration table is stale: run python -m rlhc.config_table --write"
+        "README.md's configuration table is stale: run python -m rlhc.config.table --write"
     )
 
 
 def test_every_setting_has_a_meaning_in_the_table() -> None:
-    from rlhc.config_table import table
+    from rlhc.config.table import table
 
     rows = [line for line in table().splitlines()[2:]]
     assert len(rows) > 40

@@ -34,7 +34,7 @@ from rlhc.checkpoint import (
 )
 from rlhc.cli import start
 from rlhc.cli.hydra_hooks import run_directory
-from rlhc.config import TrainConfig, register_configs
+from rlhc.config.train_schema import TrainConfig, register_configs
 from rlhc.trainer import Trainer
 
 CONF = Path(__file__).resolve().parents[1] / "conf"

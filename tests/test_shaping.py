@@ -11,11 +11,11 @@ from configs import load_smoke as load
 from tensordict import TensorDict
 from torchrl.envs import TransformedEnv
 
+from rlhc.config.validation import validate
 from rlhc.envs import make_env
 from rlhc.envs.soccer.shaping import ball_progress
 from rlhc.errors import ConfigError
 from rlhc.shaping import PotentialShaping
-from rlhc.validation import validate
 
 GAMMA = 0.9
 

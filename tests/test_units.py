@@ -16,11 +16,11 @@ from tensordict import TensorDict
 from tensordict.nn import TensorDictModule
 
 from rlhc.builders import Layout
-from rlhc.config import PPOConfig, schedules
+from rlhc.config.train_schema import PPOConfig, schedules
+from rlhc.config.validation import validate
 from rlhc.errors import ConfigError
 from rlhc.objectives import HierarchicalValueEstimator, cut_trajectories
 from rlhc.trainer import Trainer
-from rlhc.validation import validate
 
 
 # --- the layout of an update ---------------------------------------------------------

@@ -122,7 +122,7 @@ def composed(name: str) -> DictConfig:
     from hydra import compose, initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
 
-    from rlhc.config import register_configs
+    from rlhc.config.train_schema import register_configs
 
     register_configs()
     GlobalHydra.instance().clear()

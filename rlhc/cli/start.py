@@ -21,10 +21,10 @@ from omegaconf import DictConfig, OmegaConf, open_dict, read_write
 from rlhc.builders import Layout
 from rlhc.checkpoint import ResumeError, checkpoint_candidates, load_checkpoint
 from rlhc.cli.report import shown
-from rlhc.config import RESUME_AUTO, TrainConfig
+from rlhc.config.train_schema import RESUME_AUTO, TrainConfig
+from rlhc.config.validation import validate
 from rlhc.distributed import launched_size
 from rlhc.training_state import check_resumable
-from rlhc.validation import validate
 
 
 @dataclasses.dataclass(frozen=True)

@@ -3,7 +3,7 @@
 Fields left at ``None`` fall back to the game's own default, so the game module
 stays the single source of truth for its rules. Each game names its schema in its
 registry entry (:attr:`GameSpec.env_config <rlhc.envs.registry.GameSpec>`), which
-:func:`rlhc.config.register_configs` stores as ``<game>_schema``.
+:func:`rlhc.config.train_schema.register_configs` stores as ``<game>_schema``.
 """
 
 from __future__ import annotations

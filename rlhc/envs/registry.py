@@ -4,7 +4,7 @@ A game package (``rlhc/envs/<game>/``) calls :func:`register_game` once, in its
 ``__init__.py``, with a :class:`GameSpec`: its :class:`~rlhc.envs.base.BatchedGame`,
 its Hydra schema, its groups, its scripted team and its match rules. Everything that
 used to list the games by hand reads the registry instead: :func:`rlhc.envs.make_env`,
-the ``env`` config group (:func:`rlhc.config.register_configs`), checkpoint restoring,
+the ``env`` config group (:func:`rlhc.config.train_schema.register_configs`), checkpoint restoring,
 ``rlhc.evaluate``'s validation, the match rules, the scripted opponent, and the tests
 parametrised over the games.
 

@@ -7,7 +7,6 @@
 | :mod:`~rlhc.evaluation.opponents` | team policies: ``random``, ``scripted``, checkpoints |
 | :mod:`~rlhc.evaluation.matches` | batched matches between two teams, :func:`evaluate_against` |
 | :mod:`~rlhc.evaluation.video` | a match rendered to GIF or MP4 with a score overlay |
-| :mod:`~rlhc.evaluation.config` | the Hydra schema of ``python -m rlhc.evaluate`` |
 
 The torch-dependent modules are imported on first use, so that ``rlhc.plot`` (which
 needs only :mod:`~rlhc.evaluation.stats`) starts quickly.

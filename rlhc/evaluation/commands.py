@@ -13,7 +13,8 @@ import json
 from pathlib import Path
 from typing import Any
 
-from rlhc.evaluation.config import EvaluateConfig
+from rlhc.config.evaluate_schema import EvaluateConfig
+from rlhc.config.validation import validate_evaluate
 from rlhc.evaluation.elo import EloTable, round_robin
 from rlhc.evaluation.matches import (
     MatchResult,
@@ -23,7 +24,6 @@ from rlhc.evaluation.matches import (
 )
 from rlhc.evaluation.opponents import check_players, make_team_policy, player_options
 from rlhc.evaluation.video import file_label, record_match
-from rlhc.validation import validate_evaluate
 
 RESULTS_FILE = "results.json"
 MATCHES_FILE = "matches.csv"
@@ -52,7 +52,7 @@ def check_evaluation(cfg: EvaluateConfig) -> None:
 
     Raises:
         ConfigError: naming the setting, its value and what is wrong
-            (:func:`rlhc.validation.validate_evaluate`,
+            (:func:`rlhc.config.validation.validate_evaluate`,
             :func:`rlhc.evaluation.opponents.check_players`).
     """
     validate_evaluate(cfg)

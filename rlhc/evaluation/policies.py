@@ -22,7 +22,7 @@ from tensordict import TensorDictBase
 from torchrl.envs import EnvBase, Transform, VecNormV2
 
 from rlhc.builders import make_training_env, network_config
-from rlhc.config import TrainConfig
+from rlhc.config.train_schema import TrainConfig
 from rlhc.envs.keys import ACTION, OBSERVATION
 from rlhc.envs.registry import game_spec
 from rlhc.modules import make_actor

@@ -1,6 +1,6 @@
 """The network schema: the training config's ``model`` section extends it.
 
-:class:`rlhc.config.ModelConfig` is this schema plus the recurrent options, so the
+:class:`rlhc.config.train_schema.ModelConfig` is this schema plus the recurrent options, so the
 networks and the config share one definition of every network setting (and of its
 check: :meth:`NetworkConfig.__post_init__`).
 """
@@ -108,7 +108,7 @@ class NetworkConfig:
     shared_trunk: bool = False
 
     def __post_init__(self) -> None:
-        # The one check of these settings (rlhc.validation checks the rest of a config).
+        # The one check of these settings (rlhc.config.validation checks the rest of a config).
         # A value still MISSING ("???": a schema filled in later by Hydra) is not checked.
         if _given(self.num_layers) and self.num_layers < 1:
             raise allowed("model.num_layers", self.num_layers, "an integer >= 1")

@@ -8,7 +8,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
-from rlhc.config import TrainConfig, register_configs
+from rlhc.config.train_schema import TrainConfig, register_configs
 from rlhc.envs import games
 
 CONF = Path(__file__).resolve().parents[2] / "conf"

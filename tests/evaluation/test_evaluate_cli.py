@@ -12,9 +12,9 @@ import pytest
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
+from rlhc.config.evaluate_schema import EvaluateConfig, register_evaluate_configs
+from rlhc.config.validation import validate_evaluate
 from rlhc.evaluation.commands import run_elo
-from rlhc.evaluation.config import EvaluateConfig, register_evaluate_configs
-from rlhc.validation import validate_evaluate
 
 ROOT = Path(__file__).resolve().parents[2]
 register_evaluate_configs()

@@ -7,8 +7,8 @@ paper's Table 3 values live only in ``conf/table3/<env>.yaml`` (the schemas mark
 
 Every section of the config has its schema here, the league's and the shaping's
 included (their code: :mod:`rlhc.league`, :mod:`rlhc.shaping`), so that the schemas and
-their checks (:mod:`rlhc.validation`) import nothing of the code they configure; only
-the game options (:mod:`rlhc.envs.config`) and the network settings
+their checks (:mod:`rlhc.config.validation`) import nothing of the code they configure;
+only the game options (:mod:`rlhc.envs.config`) and the network settings
 (:mod:`rlhc.modules.config`), which their own layers read, live there.
 """
 
@@ -26,7 +26,7 @@ from rlhc.modules.config import NetworkConfig
 #: ``resume=auto``: continue from the run directory's own checkpoint, if it holds one.
 RESUME_AUTO = "auto"
 #: The Hydra configs: ``conf/`` next to the package.
-CONFIG_DIR = Path(__file__).resolve().parents[1] / "conf"
+CONFIG_DIR = Path(__file__).resolve().parents[2] / "conf"
 
 
 def measured_in(unit: str, default: Any = MISSING) -> Any:
@@ -135,7 +135,7 @@ def schedules(algo: PPOConfig, frames: int) -> tuple[float, float, float]:
     1e-5 and 0.1).
 
     Examples:
-        >>> from rlhc.config import PPOConfig
+        >>> from rlhc.config.train_schema import PPOConfig
         >>> algo = PPOConfig(max_steps=100, lr=1e-3, entropy_coef=0.01, clip_epsilon=0.2,
         ...                  anneal_lr=True, anneal_entropy_coef=True, anneal_clip_epsilon=True)
         >>> schedules(algo, 50)
@@ -319,7 +319,7 @@ def compose_config(*overrides: str) -> TrainConfig:
     """The training config ``python -m rlhc.run <overrides>`` composes, checked by the schemas.
 
     For scripts, notebooks and examples. Hydra's own node is left out, and so are the
-    entry point's checks (:func:`rlhc.validation.validate`) and ``resume=auto``'s
+    entry point's checks (:func:`rlhc.config.validation.validate`) and ``resume=auto``'s
     resolution.
 
     Raises:

@@ -16,12 +16,12 @@ import math
 import torch
 import torch.distributed as dist
 
-from rlhc.config import LeagueConfig, LoggerConfig, TrainConfig
+from rlhc.config.evaluate_schema import MODES, EvaluateConfig
+from rlhc.config.train_schema import LeagueConfig, LoggerConfig, TrainConfig
 from rlhc.envs import games
 from rlhc.envs.registry import shapable_games
 from rlhc.envs.tennis.rules import FAULT_PENALTIES
 from rlhc.errors import ConfigError
-from rlhc.evaluation.config import MODES, EvaluateConfig
 from rlhc.objectives import FUSIONS
 
 __all__ = ["ConfigError", "validate", "validate_evaluate"]

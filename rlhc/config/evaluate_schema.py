@@ -8,7 +8,7 @@ from typing import Any
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING
 
-from rlhc.config import register_configs
+from rlhc.config.train_schema import register_configs
 from rlhc.envs.keys import RANDOM, SCRIPTED
 
 MODES = ("match", "elo")
