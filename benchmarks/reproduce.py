@@ -7,7 +7,7 @@ study config sets ``resume=auto``, so an unfinished run continues from its lates
 checkpoint. After each process the run's ``summary.json``
 (:mod:`benchmarks.reporting.summary`: frames, budget, overrides, code versions, complete
 or not) is written; the report reads it. A complete run keeps its final team
-(``final_team.pt``, :mod:`rlhc.final_team`: written by the trainer, or here from its
+(``final_team.pt``, :mod:`rlhc.storage.final_team`: written by the trainer, or here from its
 last checkpoint if the trainer predates it), committed with the run so that the round
 robin can pit it against runs trained later. A run whose summary says complete is skipped.
 The same studies also run as Hydra multiruns (``python -m rlhc.run -m study=<name>``);
@@ -51,8 +51,8 @@ from benchmarks.reporting.summary import (
     summarise,
     write_summary,
 )
-from rlhc.checkpoint import checkpoint_candidates
-from rlhc.final_team import export_team, team_file
+from rlhc.storage.checkpoint import checkpoint_candidates
+from rlhc.storage.final_team import export_team, team_file
 
 
 def record(run: PlannedRun) -> RunSummary:

@@ -31,7 +31,7 @@ import torch
 
 from benchmarks.reporting.summary import code_version
 from rlhc.evaluation.diagnostics.soccer import scripted_diagnostics, soccer_diagnostics
-from rlhc.final_team import load_team
+from rlhc.storage.final_team import load_team
 
 #: (column title, Markdown alignment) of the table, the self-play column last.
 COLUMNS = (

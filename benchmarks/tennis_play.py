@@ -27,7 +27,7 @@ import torch
 
 from benchmarks.reporting.summary import code_version
 from rlhc.evaluation.diagnostics.tennis import ACTION_NAMES, tennis_diagnostics
-from rlhc.final_team import load_team
+from rlhc.storage.final_team import load_team
 
 ROOT = Path(__file__).resolve().parents[1]
 

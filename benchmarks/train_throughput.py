@@ -20,7 +20,7 @@ Setups run one after another, round-robin over ``--repeats``, and every ratio co
 runs of the same round (the machine is shared: a ratio within one invocation is what
 this measures). The ceiling: fp32 GEMM GFLOP/s on one core, measured in the same
 invocation at the shapes of the configured minibatch, times the processes, divided by
-the FLOP per frame of the configured networks (:func:`rlhc.flops.training_flops`:
+the FLOP per frame of the configured networks (:func:`rlhc.building.flops.training_flops`:
 the actors to collect, the value estimator and ``epochs`` forward-backward passes of the
 loss to train).
 
@@ -233,7 +233,7 @@ def run_setup(
     with ``source``, the run starts in that tree with it on ``PYTHONPATH``, so that it
     imports that tree's ``rlhc`` (the run directory stays in a temporary directory).
     """
-    from rlhc.builders import Layout
+    from rlhc.building.builders import Layout
 
     processes, extra = SETUPS[setup]
     layout = Layout.from_config(compose_config(env, critic, list(variant_overrides)))
@@ -302,8 +302,8 @@ def ceiling(
 
     ``gemm`` caches GFLOP/s per GEMM shape: given, a shape measured before is reused.
     """
-    from rlhc.builders import Layout
-    from rlhc.flops import training_flops
+    from rlhc.building.builders import Layout
+    from rlhc.building.flops import training_flops
 
     cfg = compose_config(env, critic, overrides)
     layout = Layout.from_config(cfg)
@@ -335,7 +335,7 @@ def make_wrapper_env(cfg: Any, num_envs: int) -> Any:
         TransformedEnv,
     )
 
-    from rlhc.builders import with_training_transforms
+    from rlhc.building.builders import with_training_transforms
 
     game_module = importlib.import_module(f"rlhc.envs.{cfg.env.name}")
     options = cfg.env.game_options()
@@ -375,7 +375,7 @@ def wrapper_trainer(cfg: Any, run_dir: Path) -> Any:
     """A :class:`~rlhc.trainer.Trainer` whose collection env is the wrapper route."""
     import torch
 
-    from rlhc.builders import Layout
+    from rlhc.building.builders import Layout
 
     timed: Any = timed_trainer_class()
 
@@ -465,7 +465,7 @@ def combine(
 
 
 def bench_route(route: str, env: str, critic: str, iterations: int, warmup: int) -> dict[str, Any]:
-    from rlhc.builders import Layout
+    from rlhc.building.builders import Layout
 
     layout = Layout.from_config(compose_config(env, critic, []))
     cfg = compose_config(env, critic, bench_overrides(warmup + iterations, layout.frames_per_batch))

@@ -10,7 +10,7 @@ as a shell reports a process ended by that signal.
 
 A second signal is not intercepted: it ends the process at once, as it would have
 without :class:`StopSignals` (the checkpoints written so far are complete, see
-:mod:`rlhc.checkpoint`).
+:mod:`rlhc.storage.checkpoint`).
 """
 
 from __future__ import annotations

@@ -40,8 +40,8 @@ from typing import Any
 import numpy as np
 from omegaconf import OmegaConf
 
-from rlhc.checkpoint import flatten
 from rlhc.evaluation.stats import t_half_width
+from rlhc.storage.checkpoint import flatten
 
 METRICS_FILE = "metrics.csv"
 HYDRA_CONFIG = Path(".hydra") / "config.yaml"
@@ -172,7 +172,7 @@ def read_config(run_dir: Path) -> dict[str, Any]:
             if isinstance(container, dict)
             else {}
         )
-    from rlhc.checkpoint import load_checkpoint  # torch is only needed on this path
+    from rlhc.storage.checkpoint import load_checkpoint  # torch is only needed on this path
 
     try:
         return flatten(load_checkpoint(run_dir).get("config", {}))

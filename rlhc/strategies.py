@@ -35,8 +35,7 @@ from tensordict.nn import TensorDictModuleBase
 from torchrl.collectors import Collector
 from torchrl.envs import TransformedEnv
 
-from rlhc.builders import Layout
-from rlhc.checkpoint import seed_everything
+from rlhc.building.builders import Layout
 from rlhc.distributed import (
     Processes,
     WeightChannel,
@@ -52,6 +51,7 @@ from rlhc.distributed import (
     send_batch,
 )
 from rlhc.interrupt import StopSignals
+from rlhc.storage.checkpoint import seed_everything
 from rlhc.training_state import game_rng_state
 
 

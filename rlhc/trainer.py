@@ -6,7 +6,7 @@ advantages per group, then ``epochs`` passes of minibatch PPO), log, checkpoint.
 teams of a game share each group's policy (symmetric self-play).
 
 Units are ML-Agents 0.5's, the trainer the paper ran (see :class:`~rlhc.config.train_schema.PPOConfig`
-and :class:`~rlhc.builders.Layout`): the budget, summary and checkpoint periods count
+and :class:`~rlhc.building.builders.Layout`): the budget, summary and checkpoint periods count
 world-decisions ("frames"), buffer and minibatch count agent-experiences per group.
 
 Under ``torchrun`` the same loop runs on every process; where its batches come from and
@@ -31,7 +31,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 from torchrl.envs import TransformedEnv
 
-from rlhc.builders import (
+from rlhc.building.builders import (
     Layout,
     group_names,
     make_agents,
@@ -39,17 +39,17 @@ from rlhc.builders import (
     network_config,
     trainable_parameters,
 )
-from rlhc.checkpoint import CHECKPOINT_DIR, save_checkpoint, seed_everything
 from rlhc.config.train_schema import TrainConfig, schedules
 from rlhc.config.validation import validate
 from rlhc.distributed import Processes
 from rlhc.envs.keys import MANAGER_SELECTED, MANAGER_VALUE, STATE_VALUE, WORKER_VALUE
-from rlhc.final_team import save_team
 from rlhc.interrupt import StopSignals, TrainingInterrupted
 from rlhc.league import League, LeaguePolicy
 from rlhc.loggers import MetricLogger
 from rlhc.modules import make_actor
 from rlhc.objectives import cut_trajectories, learner_weighted_loss
+from rlhc.storage.checkpoint import CHECKPOINT_DIR, save_checkpoint, seed_everything
+from rlhc.storage.final_team import save_team
 from rlhc.strategies import make_strategy
 from rlhc.summaries import ProgressReport, ScriptedMatches, SummaryWindow
 from rlhc.training_state import (
@@ -72,13 +72,13 @@ class Trainer:
         env: the collection env; ``None`` builds the batched game of ``cfg.env``. Another
             env (e.g. TorchRL's ``PettingZooWrapper`` route, for benchmarks) must follow
             the same TensorDict contract, with episode returns and observation norm from
-            :func:`~rlhc.builders.with_training_transforms`.
+            :func:`~rlhc.building.builders.with_training_transforms`.
         processes: this process's place in a ``torchrun`` run
             (:func:`rlhc.distributed.setup`); ``None``: one process.
 
     Keyword Args:
         resume_state: the checkpoint to continue, already loaded
-            (:func:`~rlhc.checkpoint.load_checkpoint`); ``None`` loads ``cfg.resume``
+            (:func:`~rlhc.storage.checkpoint.load_checkpoint`); ``None`` loads ``cfg.resume``
             if set. Checked with :func:`~rlhc.training_state.check_resumable` either way.
 
     Examples:
@@ -356,7 +356,7 @@ class Trainer:
     def save(self) -> Path:
         """Write a checkpoint (rank 0 only: the others hold the same state); its path.
 
-        At the end of the budget the final team (:mod:`rlhc.final_team`) is written too.
+        At the end of the budget the final team (:mod:`rlhc.storage.final_team`) is written too.
         """
         path = self.run_dir / CHECKPOINT_DIR / f"step_{self.frames:09d}.pt"
         if self.strategy.main:

@@ -1,4 +1,4 @@
-"""What a checkpoint of a training run holds, and putting it back (:mod:`rlhc.checkpoint` writes and reads the files).
+"""What a checkpoint of a training run holds, and putting it back (:mod:`rlhc.storage.checkpoint` writes and reads the files).
 
 A checkpoint is a plain dict (``torch.save``):
 
@@ -26,16 +26,16 @@ import torch
 from omegaconf import OmegaConf
 from torchrl.envs import EnvBase, TransformedEnv
 
-from rlhc.checkpoint import (
+from rlhc.config.train_schema import TrainConfig
+from rlhc.envs.torchrl_adapter import batched_game_env
+from rlhc.league import League
+from rlhc.storage.checkpoint import (
     ResumeError,
     config_differences,
     load_checkpoint,
     rng_states,
     set_rng_states,
 )
-from rlhc.config.train_schema import TrainConfig
-from rlhc.envs.torchrl_adapter import batched_game_env
-from rlhc.league import League
 
 
 class Counters(NamedTuple):
@@ -56,10 +56,10 @@ def check_resumable(cfg: TrainConfig, state: Mapping[str, Any]) -> None:
 
     Args:
         cfg: the config of the run that would continue.
-        state: a loaded checkpoint (:func:`~rlhc.checkpoint.load_checkpoint`).
+        state: a loaded checkpoint (:func:`~rlhc.storage.checkpoint.load_checkpoint`).
 
     Raises:
-        ResumeError: naming every differing setting (:func:`~rlhc.checkpoint.config_differences`).
+        ResumeError: naming every differing setting (:func:`~rlhc.storage.checkpoint.config_differences`).
     """
     stored = state.get("config") or {"env": {"name": state["env"]}}
     differing = config_differences(stored, config_container(cfg))

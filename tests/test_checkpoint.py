@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 import torch
 
-from rlhc import checkpoint
-from rlhc.checkpoint import (
+from rlhc.storage import checkpoint
+from rlhc.storage.checkpoint import (
     CHECKPOINT_DIR,
     LATEST,
     checkpoint_candidates,
@@ -185,7 +185,7 @@ SAVE_LOOP = textwrap.dedent(
     import sys
     from pathlib import Path
     import torch
-    from rlhc.checkpoint import save_checkpoint
+    from rlhc.storage.checkpoint import save_checkpoint
 
     run = Path(sys.argv[1])
     weights = torch.zeros(2_000_000)  # 8 MB: a save takes long enough to be killed inside

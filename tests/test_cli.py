@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from cli_runs import only_child, run_in_process, run_subprocess
 
-from rlhc.builders import ConfigError
+from rlhc.building.builders import ConfigError
 from rlhc.cli.report import one_line
 
 SMOKE = ["env=tennis", "experiment=smoke"]

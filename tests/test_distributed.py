@@ -19,12 +19,12 @@ import torch
 import torch.distributed as dist
 from configs import ROOT, load_smoke
 
-from rlhc.builders import ConfigError, Layout
-from rlhc.checkpoint import CHECKPOINT_DIR
+from rlhc.building.builders import ConfigError, Layout
 from rlhc.cli.start import preflight
 from rlhc.config.validation import PARALLEL_MODES as MODES
 from rlhc.config.validation import check_parallel as check
 from rlhc.distributed import Processes
+from rlhc.storage.checkpoint import CHECKPOINT_DIR
 
 TORCHRUN = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2"]
 

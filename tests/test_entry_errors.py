@@ -12,7 +12,7 @@ from configs import load_smoke
 
 from rlhc import evaluate, plot
 from rlhc.errors import ConfigError
-from rlhc.final_team import TEAM_FILE
+from rlhc.storage.final_team import TEAM_FILE
 from rlhc.trainer import Trainer
 
 NOT_A_PLAYER = (

@@ -14,10 +14,17 @@ import pytest
 import torch
 from configs import load_smoke as load
 
-from rlhc.checkpoint import CHECKPOINT_DIR, checkpoint_candidates, load_checkpoint
 from rlhc.envs import make_env
 from rlhc.evaluation.opponents import make_team_policy
-from rlhc.final_team import TEAM_FILE, TEAM_KEYS, export_team, has_team, load_team, team_state
+from rlhc.storage.checkpoint import CHECKPOINT_DIR, checkpoint_candidates, load_checkpoint
+from rlhc.storage.final_team import (
+    TEAM_FILE,
+    TEAM_KEYS,
+    export_team,
+    has_team,
+    load_team,
+    team_state,
+)
 from rlhc.trainer import Trainer
 
 

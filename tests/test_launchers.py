@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 from cli_runs import steps, subprocess_env
 
-from rlhc.checkpoint import load_checkpoint
+from rlhc.storage.checkpoint import load_checkpoint
 
 MISSING = "needs the cluster extra: pip install -e .[cluster]"
 #: The 2-job sweep of both tests: seconds per job (512 frames, csv only).

@@ -11,7 +11,6 @@ from configs import load_smoke as load
 from hydra.errors import ConfigCompositionException
 from torchrl.collectors import Collector
 
-from rlhc.checkpoint import load_checkpoint
 from rlhc.config.train_schema import LeagueConfig
 from rlhc.config.validation import validate
 from rlhc.envs import games
@@ -27,6 +26,7 @@ from rlhc.league import (
     League,
     allocate_worlds,
 )
+from rlhc.storage.checkpoint import load_checkpoint
 from rlhc.trainer import Trainer
 
 

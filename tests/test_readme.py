@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 from cli_runs import ROOT, only_child, steps, subprocess_env
 
-from rlhc.checkpoint import load_checkpoint
+from rlhc.storage.checkpoint import load_checkpoint
 
 README = ROOT / "README.md"
 TINY = ["experiment=smoke", "algo.max_steps=128"]

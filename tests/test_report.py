@@ -407,7 +407,7 @@ def test_teams_without_weights_keep_their_series_and_miss_only_new_pairings(
     toy: dict[str, Study], results: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from benchmarks.reporting import standings
-    from rlhc.final_team import save_team
+    from rlhc.storage.final_team import save_team
 
     runs = discover(toy)
     teams = ["hierarchical/seed_0", "hierarchical/seed_1", "ppo/seed_0", "ppo/seed_1"]
@@ -441,7 +441,7 @@ def test_a_borrowing_study_meets_the_lenders_teams_that_kept_their_weights(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     from benchmarks.reporting import standings, study
-    from rlhc.final_team import save_team
+    from rlhc.storage.final_team import save_team
 
     # "toy" borrows ppo from "lender": lender's ppo seed 0 kept its weights, seed 1 did not.
     lender_root = tmp_path_factory.mktemp("lender")
@@ -529,8 +529,8 @@ def test_reproduce_starts_only_runs_that_fit_in_hours(
 
 def test_reproduce_keeps_the_final_team_of_a_complete_run(tmp_path: Path) -> None:
     from benchmarks import reproduce
-    from rlhc.checkpoint import save_checkpoint
-    from rlhc.final_team import TEAM_FILE, load_team
+    from rlhc.storage.checkpoint import save_checkpoint
+    from rlhc.storage.final_team import TEAM_FILE, load_team
 
     state = {"env": "tennis", "config": {}, "actors": {}, "env_transform": {}, "optimizer": {}}
     done, partial = (PlannedRun("toy", "ppo", seed, 100, tmp_path) for seed in (0, 1))

@@ -25,16 +25,16 @@ from omegaconf import OmegaConf
 from tensordict import TensorDictBase
 
 from rlhc import training_state
-from rlhc.checkpoint import (
+from rlhc.cli import start
+from rlhc.cli.hydra_hooks import run_directory
+from rlhc.config.train_schema import TrainConfig, register_configs
+from rlhc.storage.checkpoint import (
     CHECKPOINT_DIR,
     ResumeError,
     config_differences,
     load_checkpoint,
     run_dir_of,
 )
-from rlhc.cli import start
-from rlhc.cli.hydra_hooks import run_directory
-from rlhc.config.train_schema import TrainConfig, register_configs
 from rlhc.trainer import Trainer
 
 CONF = Path(__file__).resolve().parents[1] / "conf"

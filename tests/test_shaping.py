@@ -11,11 +11,11 @@ from configs import load_smoke as load
 from tensordict import TensorDict
 from torchrl.envs import TransformedEnv
 
+from rlhc.building.shaping import PotentialShaping
 from rlhc.config.validation import validate
 from rlhc.envs import make_env
 from rlhc.envs.soccer.shaping import ball_progress
 from rlhc.errors import ConfigError
-from rlhc.shaping import PotentialShaping
 
 GAMMA = 0.9
 
@@ -79,7 +79,7 @@ def test_soccer_steps_telescope_with_the_ball_progress_potential() -> None:
 
 
 def test_logged_returns_stay_the_games_own(tmp_path: Path) -> None:
-    from rlhc.builders import make_training_env
+    from rlhc.building.builders import make_training_env
 
     cfg = load("env=soccer", "shaping.scale=1.0")
     env = make_training_env(cfg, 2, seed=0)

@@ -19,19 +19,19 @@ from tensordict.nn import TensorDictSequential
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from rlhc.builders import ConfigError, make_agents, make_training_env
-from rlhc.checkpoint import load_checkpoint
-from rlhc.envs import make_env
-from rlhc.evaluation.policies import restore_policy
-from rlhc.flops import (
+from rlhc.building.builders import ConfigError, make_agents, make_training_env
+from rlhc.building.flops import (
     FLOP_PER_MAC,
     FORWARD_BACKWARD,
     linear_macs,
     network_flops,
     training_flops,
 )
+from rlhc.envs import make_env
+from rlhc.evaluation.policies import restore_policy
 from rlhc.modules import EnvSpecs, NetworkConfig, make_actor, make_actor_value, make_worker_critic
 from rlhc.objectives import LOSS_KEYS, HierarchicalPPOLoss
+from rlhc.storage.checkpoint import load_checkpoint
 from rlhc.trainer import Trainer
 
 GROUPS = ("striker", "goalie")

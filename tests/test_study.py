@@ -21,9 +21,9 @@ from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 from test_resume import snapshot
 
-from rlhc.checkpoint import load_checkpoint
 from rlhc.cli.cleanup import remove_if_unused, remove_unused_sweep
 from rlhc.cli.hydra_hooks import run_directory
+from rlhc.storage.checkpoint import load_checkpoint
 
 #: What each study is: the game, the critics swept, league, shaping, budget, sweep dir.
 STUDIES = {

@@ -30,7 +30,7 @@ from benchmarks.reporting.tournament import (
     load_series,
     play_round_robin,
 )
-from rlhc.checkpoint import save_checkpoint
+from rlhc.storage.checkpoint import save_checkpoint
 
 BUILT_INS = [Entrant("scripted", "scripted"), Entrant("random", "random")]
 

@@ -14,8 +14,8 @@ import torch
 from configs import load_smoke as load
 from configs import options
 
-from rlhc.checkpoint import load_checkpoint
 from rlhc.envs import game_spec, games
+from rlhc.storage.checkpoint import load_checkpoint
 from rlhc.trainer import Trainer
 
 CRITICS = options("critic")

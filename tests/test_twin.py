@@ -8,7 +8,7 @@ import pytest
 import torch
 from configs import load, load_smoke
 
-from rlhc.builders import make_agents, make_training_env
+from rlhc.building.builders import make_agents, make_training_env
 from rlhc.envs import games
 from rlhc.envs.keys import MANAGER_OBSERVATION, MANAGER_VALUE, OBSERVATION
 

@@ -15,7 +15,7 @@ from configs import load
 from tensordict import TensorDict
 from tensordict.nn import TensorDictModule
 
-from rlhc.builders import Layout
+from rlhc.building.builders import Layout
 from rlhc.config.train_schema import PPOConfig, schedules
 from rlhc.config.validation import validate
 from rlhc.errors import ConfigError

@@ -3,7 +3,7 @@
 Per study, every final team (one per complete run) plays every other and the built-in
 ``scripted`` and ``random`` teams (:mod:`reporting.tournament`); the series are kept in
 the study's ``round_robin.json`` (committed), so the report rebuilds without
-checkpoints; each finished run keeps its ``final_team.pt`` (:mod:`rlhc.final_team`,
+checkpoints; each finished run keeps its ``final_team.pt`` (:mod:`rlhc.storage.final_team`,
 committed), so a later run can still meet it. From that file:
 
 * an Elo-scale rating of every team (Bradley-Terry fit, bootstrap interval);
@@ -51,7 +51,7 @@ def playable(study: Study, runs: Sequence[StudyRun]) -> tuple[list[StudyRun], li
     """The study's complete runs that can play (a final team or a checkpoint on disk),
     and those that cannot (trained before final teams were kept, checkpoints gone):
     their stored series still count, but they meet no team trained after them."""
-    from rlhc.final_team import has_team
+    from rlhc.storage.final_team import has_team
 
     found: tuple[list[StudyRun], list[StudyRun]] = ([], [])
     for run in (r for r in runs if r.study == study.name and r.complete):
@@ -63,7 +63,7 @@ def guests(study: Study, runs: Sequence[StudyRun]) -> list[Entrant]:
     """The playable final teams of the configs a study borrows from another
     (:data:`reporting.study.BORROWED`), named ``<study>/<config>/seed_<k>``: they come
     to this study's round robin to meet its own teams."""
-    from rlhc.final_team import has_team
+    from rlhc.storage.final_team import has_team
 
     return [Entrant(guest_name(r), str(r.path)) for r in invited(study, runs) if has_team(r.path)]
 

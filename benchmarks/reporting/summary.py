@@ -173,7 +173,7 @@ def _last(columns: dict[str, Any], name: str) -> float | None:
 def checkpoint_frames(run_dir: Path) -> int | None:
     """Frames of the run's latest checkpoint, ``None`` if it keeps none."""
     # Imported here: torch is only needed when a checkpoint exists.
-    from rlhc.checkpoint import CHECKPOINT_DIR, LATEST, load_checkpoint
+    from rlhc.storage.checkpoint import CHECKPOINT_DIR, LATEST, load_checkpoint
 
     latest = run_dir / CHECKPOINT_DIR / LATEST
     return int(load_checkpoint(latest)["frames"]) if latest.exists() else None

@@ -1,7 +1,7 @@
 """A study's final teams in a round robin: entrants, the stored series, playing them.
 
 **Entrants and versions.** An :class:`Entrant` is a run directory (its committed
-``final_team.pt``, else its newest checkpoint that loads: :func:`rlhc.final_team.load_team`)
+``final_team.pt``, else its newest checkpoint that loads: :func:`rlhc.storage.final_team.load_team`)
 or a built-in team (``scripted``, ``random``). Its *version* names what plays: for a run,
 the file's frames, name and the first 12 hex digits of its SHA-256 (a run retrained into
 the same directory gets a new version even with the same file names); for a built-in,
@@ -106,7 +106,7 @@ class LoadedEntrant:
         name: the entrant's name; ``spec`` likewise.
         version: see the module docstring.
         options: the observation options of its game (empty for a built-in).
-        state: the file's :data:`rlhc.final_team.TEAM_KEYS` and ``path``; ``None`` for
+        state: the file's :data:`rlhc.storage.final_team.TEAM_KEYS` and ``path``; ``None`` for
             a built-in.
     """
 
@@ -169,7 +169,7 @@ def load_entrant(entrant: Entrant, env_name: str) -> LoadedEntrant:
     """
     from rlhc.evaluation.opponents import is_built_in
     from rlhc.evaluation.policies import observation_options
-    from rlhc.final_team import TEAM_KEYS, load_team
+    from rlhc.storage.final_team import TEAM_KEYS, load_team
 
     if is_built_in(entrant.spec):
         return LoadedEntrant(entrant.name, entrant.spec, entrant.spec, {}, None)
@@ -221,10 +221,10 @@ def play_pairing(
     process writes a newer checkpoint meanwhile.
     """
     # Imported here: torch and the games are only needed when matches are played.
-    from rlhc.checkpoint import seed_everything
     from rlhc.evaluation.matches import default_rules, make_match_env, play_matches
     from rlhc.evaluation.opponents import make_team_policy
     from rlhc.evaluation.policies import restore_policy
+    from rlhc.storage.checkpoint import seed_everything
 
     seed_everything(seed)
     # The options come from the checkpoints already read (shared_options), not re-read.

@@ -22,12 +22,12 @@ from hydra.experimental.callback import Callback
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from rlhc.checkpoint import ResumeError, run_dir_of
 from rlhc.cli.report import HYDRA_USER_ERRORS
 from rlhc.cli.start import checked, task_config
 from rlhc.config.evaluate_schema import EvaluateConfig
 from rlhc.config.train_schema import RESUME_AUTO
 from rlhc.evaluation.commands import check_evaluation
+from rlhc.storage.checkpoint import ResumeError, run_dir_of
 
 #: Errors a user fixes by changing the command line of ``rlhc.run``.
 USER_ERRORS: tuple[type[BaseException], ...] = (*HYDRA_USER_ERRORS, ResumeError)

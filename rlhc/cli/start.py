@@ -18,12 +18,12 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf, open_dict, read_write
 
-from rlhc.builders import Layout
-from rlhc.checkpoint import ResumeError, checkpoint_candidates, load_checkpoint
+from rlhc.building.builders import Layout
 from rlhc.cli.report import shown
 from rlhc.config.train_schema import RESUME_AUTO, TrainConfig
 from rlhc.config.validation import validate
 from rlhc.distributed import launched_size
+from rlhc.storage.checkpoint import ResumeError, checkpoint_candidates, load_checkpoint
 from rlhc.training_state import check_resumable
 
 
@@ -33,7 +33,7 @@ class Start:
 
     Attributes:
         cfg: the config to train, ``resume=auto`` resolved (:func:`resolve_resume`).
-        state: the checkpoint it continues (:func:`rlhc.checkpoint.load_checkpoint`,
+        state: the checkpoint it continues (:func:`rlhc.storage.checkpoint.load_checkpoint`,
             checked by :func:`rlhc.training_state.check_resumable`); ``None``: a fresh run.
     """
 

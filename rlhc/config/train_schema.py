@@ -6,7 +6,7 @@ paper's Table 3 values live only in ``conf/table3/<env>.yaml`` (the schemas mark
 ``MISSING``); the defaults here are the settings the paper does not give.
 
 Every section of the config has its schema here, the league's and the shaping's
-included (their code: :mod:`rlhc.league`, :mod:`rlhc.shaping`), so that the schemas and
+included (their code: :mod:`rlhc.league`, :mod:`rlhc.building.shaping`), so that the schemas and
 their checks (:mod:`rlhc.config.validation`) import nothing of the code they configure;
 only the game options (:mod:`rlhc.envs.config`) and the network settings
 (:mod:`rlhc.modules.config`), which their own layers read, live there.

@@ -5,7 +5,7 @@ config) run before anything is built (``rlhc.run``'s preflight, the trainer):
 it checks each setting the schemas' types cannot (ranges, choices, the league's shares,
 the logger, how the processes of a ``torchrun`` run share it) and raises
 :class:`~rlhc.errors.ConfigError` naming the key, its value and what is allowed. What
-depends on the built game (the layout of an update: :class:`rlhc.builders.Layout`; a
+depends on the built game (the layout of an update: :class:`rlhc.building.builders.Layout`; a
 shared trunk on continuous actions) is checked where it is known, with the same error.
 """
 

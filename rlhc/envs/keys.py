@@ -41,7 +41,7 @@ INFO = "info"
 
 # --- written by the training transforms, per group ---------------------------------------
 #: The return of the episode so far ``[*B, n_g, 1]`` (TorchRL's ``RewardSum``, in
-#: :func:`rlhc.builders.with_training_transforms`): the logged cumulative reward.
+#: :func:`rlhc.building.builders.with_training_transforms`): the logged cumulative reward.
 EPISODE_REWARD = "episode_reward"
 
 # --- TorchRL's own -----------------------------------------------------------------------

@@ -62,7 +62,7 @@ class GameSpec:
             wins; a match still undecided after ``points_to_win × max_cycles`` decisions
             is a draw.
         potential: its reward-shaping potential (:data:`Potential`, for
-            ``shaping.scale > 0``: :mod:`rlhc.shaping`), or ``None`` if it has none.
+            ``shaping.scale > 0``: :mod:`rlhc.building.shaping`), or ``None`` if it has none.
 
     Examples:
         >>> from rlhc.envs.registry import game_spec

@@ -7,7 +7,7 @@ TensorDict to an action for every agent of every group; a *player spec* names on
 |---|---|
 | ``random`` | uniform over each agent's action space (:class:`~rlhc.evaluation.teams.RandomPolicy`) |
 | ``scripted`` | the game's scripted team of the registry (:class:`~rlhc.evaluation.teams.ScriptedPolicy`) |
-| a path | a checkpoint or final-team file, or a run directory (its ``final_team.pt``, else its newest checkpoint: :func:`rlhc.final_team.load_team`) |
+| a path | a checkpoint or final-team file, or a run directory (its ``final_team.pt``, else its newest checkpoint: :func:`rlhc.storage.final_team.load_team`) |
 
 The built-in teams live in :mod:`rlhc.evaluation.teams` and are re-exported here.
 """
@@ -23,14 +23,14 @@ from rlhc.envs.torchrl_adapter import BatchedGameEnv
 from rlhc.errors import ConfigError
 from rlhc.evaluation.policies import observation_options, restore_policy
 from rlhc.evaluation.teams import RandomPolicy, ScriptedPolicy, TeamPolicy
-from rlhc.final_team import load_team
+from rlhc.storage.final_team import load_team
 
 #: The player specs of the built-in teams.
 BUILT_IN = (RANDOM, SCRIPTED)
 
 
 def load_policy_checkpoint(spec: str, env_name: str) -> dict[str, Any]:
-    """Load what plays for ``spec`` (:func:`~rlhc.final_team.load_team`) and check it was
+    """Load what plays for ``spec`` (:func:`~rlhc.storage.final_team.load_team`) and check it was
     trained on ``env_name``.
 
     Raises:

@@ -5,7 +5,7 @@ each group's actor weights and the state of the training env's transforms. When
 ``algo.normalize_observations`` was on, that state holds a TorchRL ``VecNormV2`` over
 ``(g, "observation")`` and ``(g, "manager_observation")``; the actors were trained on
 normalised observations, so a restored policy must see its inputs through the *same*
-statistics, frozen. The training env is rebuilt with :func:`rlhc.builders.make_training_env`
+statistics, frozen. The training env is rebuilt with :func:`rlhc.building.builders.make_training_env`
 (one world) so that the normaliser's settings (decay, eps, keys) come from the one
 place that defines them.
 """
@@ -21,7 +21,7 @@ from omegaconf import OmegaConf
 from tensordict import TensorDictBase
 from torchrl.envs import EnvBase, Transform, VecNormV2
 
-from rlhc.builders import make_training_env, network_config
+from rlhc.building.builders import make_training_env, network_config
 from rlhc.config.train_schema import TrainConfig
 from rlhc.envs.keys import ACTION, OBSERVATION
 from rlhc.envs.registry import game_spec
@@ -93,7 +93,7 @@ def restore_policy(state: Mapping[str, Any], env: EnvBase) -> RestoredPolicy:
     back (the worker critic's value head is not part of a policy).
 
     Args:
-        state: a loaded checkpoint (:func:`rlhc.checkpoint.load_checkpoint`).
+        state: a loaded checkpoint (:func:`rlhc.storage.checkpoint.load_checkpoint`).
         env: the evaluation env (built by :func:`rlhc.envs.make_env`); its specs must
             match the ones the policy was trained on.
 

@@ -10,7 +10,7 @@ import pytest
 
 from rlhc.evaluation.diagnostics.__main__ import main
 from rlhc.evaluation.diagnostics.tennis import ACTION_NAMES, tennis_diagnostics
-from rlhc.final_team import load_team
+from rlhc.storage.final_team import load_team
 
 
 def test_an_untrained_team_is_measured_in_both_modes(checkpoints: dict[str, Path]) -> None:

@@ -9,7 +9,6 @@ import pytest
 import torch
 from tensordict import TensorDict
 
-from rlhc.checkpoint import save_checkpoint
 from rlhc.envs import make_env
 from rlhc.evaluation.matches import (
     MatchRules,
@@ -20,6 +19,7 @@ from rlhc.evaluation.matches import (
 )
 from rlhc.evaluation.opponents import make_team_policy
 from rlhc.evaluation.stats import wilson_interval
+from rlhc.storage.checkpoint import save_checkpoint
 
 
 def series(
@@ -152,9 +152,9 @@ def test_restored_policy_sees_what_the_trained_actor_saw(checkpoints: dict[str, 
     from torchrl.envs import VecNormV2
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-    from rlhc.builders import make_training_env
-    from rlhc.checkpoint import load_checkpoint
+    from rlhc.building.builders import make_training_env
     from rlhc.evaluation.policies import checkpoint_config, restore_policy
+    from rlhc.storage.checkpoint import load_checkpoint
 
     state = load_checkpoint(checkpoints["tennis"])
     training_env = make_training_env(checkpoint_config(state), num_envs=3, seed=1)

@@ -33,7 +33,7 @@ from rlhc.evaluation.diagnostics.soccer_events import (
     in_touch,
 )
 from rlhc.evaluation.teams import ScriptedPolicy
-from rlhc.final_team import load_team
+from rlhc.storage.final_team import load_team
 
 FORWARD, BACKWARD, ROTATE_LEFT = 0, 1, 2
 Plan = Callable[[int], tuple[np.ndarray, np.ndarray]]

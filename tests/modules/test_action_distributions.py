@@ -178,7 +178,7 @@ def test_bad_settings_name_the_value() -> None:
 
 def test_the_training_config_reaches_the_networks() -> None:
     # Every network setting of the ``model`` section is passed on to the builders.
-    from rlhc.builders import network_config
+    from rlhc.building.builders import network_config
     from rlhc.config.train_schema import ModelConfig, TrainConfig
 
     model = ModelConfig(

@@ -2,7 +2,7 @@
 
 ``Φ_team(s) = x_ball / half_length`` in the team's attacking direction (team 0 attacks
 ``+x``), in ``[-1, 1]``: every agent of a team gets its team's potential. Used by
-:class:`~rlhc.shaping.PotentialShaping` as ``F = γ Φ(s') − Φ(s)`` (Ng, Harada &
+:class:`~rlhc.building.shaping.PotentialShaping` as ``F = γ Φ(s') − Φ(s)`` (Ng, Harada &
 Russell 1999), which leaves the optimal policies of the game unchanged.
 """
 

@@ -27,7 +27,7 @@ DIAGNOSTICS: dict[str, Callable[..., dict[str, Any]]] = {
 def diagnose(
     state: Mapping[str, Any], *, worlds: int = 32, decisions: int = 1000, seed: int = 0
 ) -> dict[str, Any]:
-    """The play diagnostics of a loaded team (:func:`rlhc.final_team.load_team`).
+    """The play diagnostics of a loaded team (:func:`rlhc.storage.final_team.load_team`).
 
     Raises:
         ValueError: no diagnostics for the team's game (the message lists those there are).

@@ -10,7 +10,7 @@ import torch
 
 from rlhc.cli.report import user_errors_in_one_line
 from rlhc.evaluation.diagnostics import diagnose
-from rlhc.final_team import load_team
+from rlhc.storage.final_team import load_team
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -243,7 +243,7 @@ def soccer_diagnostics(
     """The table of the module docstring for a trained soccer team.
 
     Args:
-        state: a loaded checkpoint or final team (:func:`rlhc.final_team.load_team`).
+        state: a loaded checkpoint or final team (:func:`rlhc.storage.final_team.load_team`).
         worlds: pitches played at once (the trained team on team ``k % 2`` of pitch ``k``).
         decisions: decisions per pitch, for each play (against scripted, self-play).
         seed: the pitches' seed (the same for both plays); torch is seeded with it too.

@@ -107,7 +107,7 @@ def tennis_diagnostics(
     """The table of the module docstring for a trained tennis team.
 
     Args:
-        state: a loaded checkpoint or final team (:func:`rlhc.final_team.load_team`).
+        state: a loaded checkpoint or final team (:func:`rlhc.storage.final_team.load_team`).
         worlds: courts played at once.
         decisions: decisions per court and mode.
         seed: the courts' seed (the same for both modes); torch is seeded with it too.

@@ -2,7 +2,7 @@
 
 A run directory holds ``checkpoints/step_<frames>.pt`` files and a ``latest.pt``
 symlink to the newest (and, once the budget is reached, the much smaller
-``final_team.pt`` that matches play from: :mod:`rlhc.final_team`). Both survive a kill
+``final_team.pt`` that matches play from: :mod:`rlhc.storage.final_team`). Both survive a kill
 at any instant:
 
 - every file is written to a hidden temporary file in the same directory, flushed to

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import torch
 from torchrl.envs import Compose, EnvBase, RewardSum, TransformedEnv, VecNormV2
 
+from rlhc.building.shaping import PotentialShaping, game_potential
 from rlhc.config.train_schema import TrainConfig
 from rlhc.envs import make_env, make_game
 from rlhc.envs.keys import EPISODE_REWARD, MANAGER_OBSERVATION, OBSERVATION, REWARD
@@ -29,7 +30,6 @@ from rlhc.modules import (
 )
 from rlhc.modules.specs import action_spec
 from rlhc.objectives import HierarchicalPPOLoss, make_ppo_loss
-from rlhc.shaping import PotentialShaping, game_potential
 
 
 @dataclass(frozen=True)

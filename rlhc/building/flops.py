@@ -4,7 +4,7 @@ Counted, not timed: every ``nn.Linear`` of a built network costs
 ``in_features x out_features`` multiply-adds (MAC) per agent it is applied to, and a
 MAC is 2 FLOP. Activations, biases, the distributions and the optimiser are left out
 (a few percent at the sizes of Table 3). Networks are built with
-:func:`rlhc.builders.make_agents`, exactly as the trainer builds them, so a
+:func:`rlhc.building.builders.make_agents`, exactly as the trainer builds them, so a
 shared trunk (``model.shared_trunk``) is counted in both the actor and the worker
 critic: each of TorchRL's two operators runs it.
 
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from torch import nn
 from torchrl.envs import EnvBase
 
-from rlhc.builders import make_agents
+from rlhc.building.builders import make_agents
 from rlhc.config.train_schema import TrainConfig
 from rlhc.envs import make_env
 from rlhc.modules.specs import observation_size
@@ -106,7 +106,7 @@ def network_flops(cfg: TrainConfig, env: EnvBase | None = None) -> dict[str, Gro
         ``group -> GroupFlops``.
 
     Raises:
-        rlhc.builders.ConfigError: ``model.shared_trunk=true`` on continuous actions.
+        rlhc.building.builders.ConfigError: ``model.shared_trunk=true`` on continuous actions.
 
     Examples:
         >>> from rlhc.config.train_schema import compose_config

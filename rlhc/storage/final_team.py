@@ -1,6 +1,6 @@
 """A finished run's final team: the policy part of its last checkpoint, small enough to keep.
 
-A checkpoint (:mod:`rlhc.checkpoint`) holds everything a resume needs — both critics,
+A checkpoint (:mod:`rlhc.storage.checkpoint`) holds everything a resume needs — both critics,
 Adam's moments, the random states — and is not meant to be committed. A match needs
 far less: the actors, the observation normaliser and the config they were built from.
 When a run reaches its budget the trainer also writes ``<run dir>/final_team.pt`` with
@@ -11,7 +11,7 @@ exactly that (:data:`TEAM_KEYS`), in the checkpoint file format, so
 - the file names what plays: a round robin versions a team by this file's hash, which
   is the same on every machine that holds the run.
 
-A resume never reads it: :func:`rlhc.checkpoint.checkpoint_candidates` looks only for
+A resume never reads it: :func:`rlhc.storage.checkpoint.checkpoint_candidates` looks only for
 ``checkpoints/step_*.pt`` and ``latest.pt``.
 
 Examples:
@@ -36,7 +36,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from rlhc.checkpoint import checkpoint_candidates, load_checkpoint, write_atomically
+from rlhc.storage.checkpoint import checkpoint_candidates, load_checkpoint, write_atomically
 
 #: The file, directly in the run directory.
 TEAM_FILE = "final_team.pt"
@@ -72,7 +72,7 @@ def export_team(run_dir: str | os.PathLike[str]) -> Path:
 
     Raises:
         FileNotFoundError: the directory holds no loadable checkpoint (as
-            :func:`rlhc.checkpoint.load_checkpoint`).
+            :func:`rlhc.storage.checkpoint.load_checkpoint`).
     """
     return save_team(run_dir, load_checkpoint(run_dir))
 
