@@ -1,7 +1,7 @@
 """Memory: resident set size of a full training run, sampled over time.
 
 Builds the run as ``python -m rlhc.run env=<env> critic=<critic>`` does (Hydra config,
-:class:`rlhc.trainer.Trainer`, default loggers: CSV + TensorBoard, checkpoints every
+:class:`rlhc.training.trainer.Trainer`, default loggers: CSV + TensorBoard, checkpoints every
 ``checkpoint_freq`` frames), and samples ``VmRSS`` from ``/proc/self/status`` in a
 background thread together with the trainer's frame counter. Reports the peak RSS,
 the min/max after the first ``--settle`` share of the frames, and the least-squares
@@ -106,7 +106,7 @@ def main() -> None:
     parser.add_argument("--output-dir", type=Path, default=RESULTS)
     args = parser.parse_args()
 
-    from rlhc.trainer import Trainer
+    from rlhc.training.trainer import Trainer
 
     overrides = ["logger.progress=false"]
     if args.max_steps is not None:

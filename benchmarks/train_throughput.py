@@ -372,7 +372,7 @@ def make_wrapper_env(cfg: Any, num_envs: int) -> Any:
 
 
 def wrapper_trainer(cfg: Any, run_dir: Path) -> Any:
-    """A :class:`~rlhc.trainer.Trainer` whose collection env is the wrapper route."""
+    """A :class:`~rlhc.training.trainer.Trainer` whose collection env is the wrapper route."""
     import torch
 
     from rlhc.building.builders import Layout
@@ -398,12 +398,12 @@ def wrapper_trainer(cfg: Any, run_dir: Path) -> Any:
 
 # --- measuring a route, in this process ---------------------------------------------------
 def timed_trainer_class() -> type:
-    """A :class:`~rlhc.trainer.Trainer` that records process CPU time per update.
+    """A :class:`~rlhc.training.trainer.Trainer` that records process CPU time per update.
 
     With one torch thread and a single-process env, CPU seconds are the seconds the
     loop actually ran, so frames per CPU-second hardly depends on the machine's load.
     """
-    from rlhc.trainer import Trainer
+    from rlhc.training.trainer import Trainer
 
     class Timed(Trainer):
         def __init__(self, *args: Any, **kwargs: Any) -> None:
@@ -517,7 +517,7 @@ def breakdown(path: Path) -> dict[str, float]:
     compiled = [(name, re.compile(pattern)) for name, pattern in CATEGORIES]
     for line in path.read_text().splitlines():
         stack, _, count = line.rpartition(" ")
-        if not stack or "train (rlhc/trainer.py" not in stack:
+        if not stack or "train (rlhc/training/trainer.py" not in stack:
             continue  # imports, config, set-up, teardown
         total += int(count)
         name = next((n for n, p in compiled if p.search(stack)), "other (trainer loop)")

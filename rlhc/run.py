@@ -33,7 +33,7 @@ A resume loads and checks its checkpoint once, in that first check, and the trai
 continues from the state loaded there.
 
 Under ``torchrun --nproc_per_node=N`` every process runs this entry point
-(:mod:`rlhc.distributed`): rank 0 owns the run directory and all output; the other
+(:mod:`rlhc.training.distributed`): rank 0 owns the run directory and all output; the other
 ranks write nothing (Hydra's files off, their log lines on stdout) and use rank 0's
 directory.
 """
@@ -60,9 +60,15 @@ from rlhc.cli.hydra_hooks import USER_ERRORS, PreflightFailed
 from rlhc.cli.report import shown, user_errors_in_one_line
 from rlhc.cli.start import forget_checked, take_checked
 from rlhc.config.train_schema import CONFIG_DIR, register_configs
-from rlhc.distributed import broadcast_object, launched_rank, launched_size, setup, shutdown
-from rlhc.interrupt import TrainingInterrupted
-from rlhc.trainer import Trainer
+from rlhc.training.distributed import (
+    broadcast_object,
+    launched_rank,
+    launched_size,
+    setup,
+    shutdown,
+)
+from rlhc.training.interrupt import TrainingInterrupted
+from rlhc.training.trainer import Trainer
 
 PROGRAM = "rlhc.run"
 #: ``hydra.output_subdir`` that writes no ``.hydra/`` (Hydra's null).

@@ -20,10 +20,10 @@ import torch
 import torch.distributed as dist
 from configs import load_smoke
 
-from rlhc.distributed import broadcast_object, gather, setup, shutdown
 from rlhc.objectives import cut_trajectories
-from rlhc.strategies import SingleProcess
-from rlhc.trainer import Trainer
+from rlhc.training.distributed import broadcast_object, gather, setup, shutdown
+from rlhc.training.strategies import SingleProcess
+from rlhc.training.trainer import Trainer
 
 
 def main(out: Path, overrides: list[str]) -> None:

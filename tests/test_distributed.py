@@ -23,8 +23,8 @@ from rlhc.building.builders import ConfigError, Layout
 from rlhc.cli.start import preflight
 from rlhc.config.validation import PARALLEL_MODES as MODES
 from rlhc.config.validation import check_parallel as check
-from rlhc.distributed import Processes
 from rlhc.storage.checkpoint import CHECKPOINT_DIR
+from rlhc.training.distributed import Processes
 
 TORCHRUN = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2"]
 

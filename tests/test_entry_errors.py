@@ -13,7 +13,7 @@ from configs import load_smoke
 from rlhc import evaluate, plot
 from rlhc.errors import ConfigError
 from rlhc.storage.final_team import TEAM_FILE
-from rlhc.trainer import Trainer
+from rlhc.training.trainer import Trainer
 
 NOT_A_PLAYER = (
     "is neither a built-in team (random, scripted) nor an existing checkpoint file or run directory"

@@ -25,7 +25,7 @@ from rlhc.storage.final_team import (
     load_team,
     team_state,
 )
-from rlhc.trainer import Trainer
+from rlhc.training.trainer import Trainer
 
 
 @pytest.fixture(scope="module")

@@ -19,9 +19,9 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 
 from rlhc.config.train_schema import TrainConfig, register_configs
-from rlhc.interrupt import StopSignals, TrainingInterrupted
 from rlhc.storage.checkpoint import CHECKPOINT_DIR, load_checkpoint, step_of
-from rlhc.trainer import Trainer
+from rlhc.training.interrupt import StopSignals, TrainingInterrupted
+from rlhc.training.trainer import Trainer
 
 SMOKE = ["env=tennis", "experiment=smoke", "logger.summary_freq=64", "checkpoint_freq=64"]
 register_configs()

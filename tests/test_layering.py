@@ -177,24 +177,28 @@ def test_imports_go_down_the_layers_of_the_readme_layout() -> None:
 
 
 def test_the_trainer_reaches_other_processes_only_through_its_strategy() -> None:
-    """``rlhc.strategies`` holds every cross-process step of the loop: the trainer takes
-    only the ``Processes`` record from ``rlhc.distributed``, and the modules the trainer
+    """``rlhc.training.strategies`` holds every cross-process step of the loop: the trainer takes
+    only the ``Processes`` record from ``rlhc.training.distributed``, and the modules the trainer
     is built from (strategies, summaries, training state) never import it back."""
-    tree = ast.parse((PACKAGE / "trainer.py").read_text())
+    tree = ast.parse((PACKAGE / "training" / "trainer.py").read_text())
     from_distributed = {
         alias.name
         for node in runtime_imports(tree)
-        if isinstance(node, ast.ImportFrom) and node.module == "rlhc.distributed"
+        if isinstance(node, ast.ImportFrom) and node.module == "rlhc.training.distributed"
         for alias in node.names
     }
     assert from_distributed == {"Processes"}
     graph = import_graph()
-    assert "rlhc.distributed" in graph["rlhc.strategies"]
-    for module in ("rlhc.strategies", "rlhc.summaries", "rlhc.training_state"):
-        assert "rlhc.trainer" not in graph[module], module
+    assert "rlhc.training.distributed" in graph["rlhc.training.strategies"]
+    for module in (
+        "rlhc.training.strategies",
+        "rlhc.training.summaries",
+        "rlhc.training.training_state",
+    ):
+        assert "rlhc.training.trainer" not in graph[module], module
     # The learning core stays below: the loss's cross-process reduce is handed to it.
     assert all(
-        not target.startswith("rlhc.distributed")
+        not target.startswith("rlhc.training.distributed")
         for module, targets in graph.items()
         if layer(module) == LAYERS.index("rlhc.objectives")
         for target in targets

@@ -16,7 +16,8 @@ from rlhc.config.validation import validate
 from rlhc.envs import games
 from rlhc.errors import ConfigError
 from rlhc.evaluation.elo import expected_score
-from rlhc.league import (
+from rlhc.storage.checkpoint import load_checkpoint
+from rlhc.training.league import (
     KINDS,
     LEARNER,
     LEARNER_TEAM,
@@ -26,8 +27,7 @@ from rlhc.league import (
     League,
     allocate_worlds,
 )
-from rlhc.storage.checkpoint import load_checkpoint
-from rlhc.trainer import Trainer
+from rlhc.training.trainer import Trainer
 
 
 # --- shares ---------------------------------------------------------------------------

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from cli_runs import run_in_process
 
-from rlhc.loggers import WANDB_RUN_ID_FILE
+from rlhc.training.loggers import WANDB_RUN_ID_FILE
 
 SMOKE = ["env=tennis", "experiment=smoke", "logger=wandb", "logger.wandb_mode=offline"]
 

@@ -24,7 +24,6 @@ from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 from tensordict import TensorDictBase
 
-from rlhc import training_state
 from rlhc.cli import start
 from rlhc.cli.hydra_hooks import run_directory
 from rlhc.config.train_schema import TrainConfig, register_configs
@@ -35,7 +34,8 @@ from rlhc.storage.checkpoint import (
     load_checkpoint,
     run_dir_of,
 )
-from rlhc.trainer import Trainer
+from rlhc.training import training_state
+from rlhc.training.trainer import Trainer
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
 #: 64-frame updates (smoke: 256 experiences / 4 rackets), a summary and a checkpoint each.

@@ -32,7 +32,7 @@ from rlhc.evaluation.policies import restore_policy
 from rlhc.modules import EnvSpecs, NetworkConfig, make_actor, make_actor_value, make_worker_critic
 from rlhc.objectives import LOSS_KEYS, HierarchicalPPOLoss
 from rlhc.storage.checkpoint import load_checkpoint
-from rlhc.trainer import Trainer
+from rlhc.training.trainer import Trainer
 
 GROUPS = ("striker", "goalie")
 

@@ -16,7 +16,7 @@ from configs import options
 
 from rlhc.envs import game_spec, games
 from rlhc.storage.checkpoint import load_checkpoint
-from rlhc.trainer import Trainer
+from rlhc.training.trainer import Trainer
 
 CRITICS = options("critic")
 ENVS = games()

@@ -47,7 +47,7 @@ def test_rlhc_keeps_the_manager_view() -> None:
 
 
 def test_a_twin_run_trains(tmp_path: Path) -> None:
-    from rlhc.trainer import Trainer
+    from rlhc.training.trainer import Trainer
 
     metrics = Trainer(
         load_smoke("env=soccer", "critic=twin", "logger.backends=[csv]"), tmp_path

@@ -20,7 +20,7 @@ from rlhc.config.train_schema import PPOConfig, schedules
 from rlhc.config.validation import validate
 from rlhc.errors import ConfigError
 from rlhc.objectives import HierarchicalValueEstimator, cut_trajectories
-from rlhc.trainer import Trainer
+from rlhc.training.trainer import Trainer
 
 
 # --- the layout of an update ---------------------------------------------------------

@@ -7,6 +7,6 @@
 | :mod:`rlhc.building.flops` | the arithmetic of the built networks: FLOP per world-decision |
 
 A checkpoint's config rebuilds exactly the networks that were trained, because the
-trainer (:mod:`rlhc.trainer`) and the evaluation (:mod:`rlhc.evaluation`) both build
-through here.
+trainer (:mod:`rlhc.training.trainer`) and the evaluation (:mod:`rlhc.evaluation`)
+both build through here.
 """

@@ -80,7 +80,7 @@ class Layout:
     ) -> Layout:
         """The layout of an update; :class:`ConfigError` names any setting that cannot work.
 
-        ``shards`` data-parallel processes (:mod:`rlhc.distributed`) each step
+        ``shards`` data-parallel processes (:mod:`rlhc.training.distributed`) each step
         ``num_envs / shards`` worlds and compute ``1 / shards`` of every minibatch: both
         must split evenly. ``num_envs`` counts the worlds of every process.
         """

@@ -5,7 +5,7 @@ A start is checked before Hydra writes into the run's directory: a single run by
 :mod:`rlhc.cli.hydra_hooks`), and then again when :func:`rlhc.run.main` starts the job.
 Loading a checkpoint is the costly part of a check, so the latest check is kept: the
 job takes it (:func:`take_checked`), checkpoint included, and hands that checkpoint
-to the :class:`~rlhc.trainer.Trainer`. A resume loads its checkpoint once.
+to the :class:`~rlhc.training.trainer.Trainer`. A resume loads its checkpoint once.
 """
 
 from __future__ import annotations
@@ -22,9 +22,9 @@ from rlhc.building.builders import Layout
 from rlhc.cli.report import shown
 from rlhc.config.train_schema import RESUME_AUTO, TrainConfig
 from rlhc.config.validation import validate
-from rlhc.distributed import launched_size
 from rlhc.storage.checkpoint import ResumeError, checkpoint_candidates, load_checkpoint
-from rlhc.training_state import check_resumable
+from rlhc.training.distributed import launched_size
+from rlhc.training.training_state import check_resumable
 
 
 @dataclasses.dataclass(frozen=True)
@@ -34,7 +34,7 @@ class Start:
     Attributes:
         cfg: the config to train, ``resume=auto`` resolved (:func:`resolve_resume`).
         state: the checkpoint it continues (:func:`rlhc.storage.checkpoint.load_checkpoint`,
-            checked by :func:`rlhc.training_state.check_resumable`); ``None``: a fresh run.
+            checked by :func:`rlhc.training.training_state.check_resumable`); ``None``: a fresh run.
     """
 
     cfg: TrainConfig

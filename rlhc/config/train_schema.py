@@ -6,7 +6,7 @@ paper's Table 3 values live only in ``conf/table3/<env>.yaml`` (the schemas mark
 ``MISSING``); the defaults here are the settings the paper does not give.
 
 Every section of the config has its schema here, the league's and the shaping's
-included (their code: :mod:`rlhc.league`, :mod:`rlhc.building.shaping`), so that the schemas and
+included (their code: :mod:`rlhc.training.league`, :mod:`rlhc.building.shaping`), so that the schemas and
 their checks (:mod:`rlhc.config.validation`) import nothing of the code they configure;
 only the game options (:mod:`rlhc.envs.config`) and the network settings
 (:mod:`rlhc.modules.config`), which their own layers read, live there.
@@ -274,7 +274,7 @@ class TrainConfig:
             scripted team and log the win rate (``0``: never).
         eval_matches: matches per periodic evaluation (half on each side).
         parallel: how the processes of ``torchrun --nproc_per_node=N`` (N > 1) share a
-            run (:mod:`rlhc.distributed`): ``data`` (each steps its share of the worlds,
+            run (:mod:`rlhc.training.distributed`): ``data`` (each steps its share of the worlds,
             gradients all-reduced every minibatch: the same update as one process) or
             ``pipeline`` (rank 0 updates while the others collect the next batch with
             the policy one update older). Ignored by a single process.

@@ -30,9 +30,9 @@ MODEL_KINDS = ("mlp", "lstm")
 #: Metric backends (``logger.backends``) and wandb modes (``logger.wandb_mode``).
 BACKENDS = ("csv", "tensorboard", "wandb")
 WANDB_MODES = ("auto", "online", "offline", "disabled")
-#: How the processes of a ``torchrun`` run share it (``parallel``; rlhc.distributed).
+#: How the processes of a ``torchrun`` run share it (``parallel``; rlhc.training.distributed).
 PARALLEL_MODES = ("data", "pipeline")
-#: How the league draws a snapshot to play (``league.sampling``; rlhc.league).
+#: How the league draws a snapshot to play (``league.sampling``; rlhc.training.league).
 SAMPLING = ("uniform", "elo")
 
 

@@ -1,6 +1,6 @@
 """Rebuild a trained policy (actors + frozen observation normaliser) from a checkpoint.
 
-A checkpoint (:meth:`rlhc.trainer.Trainer.state`) stores the resolved training config,
+A checkpoint (:meth:`rlhc.training.trainer.Trainer.state`) stores the resolved training config,
 each group's actor weights and the state of the training env's transforms. When
 ``algo.normalize_observations`` was on, that state holds a TorchRL ``VecNormV2`` over
 ``(g, "observation")`` and ``(g, "manager_observation")``; the actors were trained on

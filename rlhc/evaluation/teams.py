@@ -7,7 +7,7 @@ and discards the rest. Computing both teams' actions costs one batched call and 
 every policy free of team bookkeeping.
 
 This module reads only the env layer (no checkpoints, no training config), so that the
-league (:mod:`rlhc.league`) can use the built-in teams without importing the checkpoint
+league (:mod:`rlhc.training.league`) can use the built-in teams without importing the checkpoint
 machinery of :mod:`rlhc.evaluation.opponents`, which reads the league's config.
 """
 

@@ -1,6 +1,6 @@
 """PPO under the learner weight: the experiences of a league world's opponents add nothing.
 
-In a league world (:mod:`rlhc.league`) one team plays the learning policy and the
+In a league world (:mod:`rlhc.training.league`) one team plays the learning policy and the
 other an opponent; both teams' experiences are collected, but only the learner's may
 train it. Each experience carries a weight, 1 where the learning policy chose the
 action (``(g, "learner")``) and 0 elsewhere (all ones without a league), and

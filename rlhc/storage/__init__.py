@@ -7,5 +7,5 @@
 
 Plain dicts and files only: nothing here builds a network or reads a schema, so the
 evaluation and the trainer above both read and write through it. What the trainer
-puts into a checkpoint, and how it puts it back, is :mod:`rlhc.training_state`.
+puts into a checkpoint, and how it puts it back, is :mod:`rlhc.training.training_state`.
 """

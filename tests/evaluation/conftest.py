@@ -24,7 +24,7 @@ def smoke_config(env: str, *overrides: str) -> TrainConfig:
 @pytest.fixture(scope="session")
 def checkpoints(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """``env -> run directory`` of a one-update smoke run (tennis normalises observations)."""
-    from rlhc.trainer import Trainer
+    from rlhc.training.trainer import Trainer
 
     runs = {}
     for env in games():

@@ -10,7 +10,7 @@ and :class:`~rlhc.building.builders.Layout`): the budget, summary and checkpoint
 world-decisions ("frames"), buffer and minibatch count agent-experiences per group.
 
 Under ``torchrun`` the same loop runs on every process; where its batches come from and
-what is combined across processes is the strategy's (:mod:`rlhc.strategies`).
+what is combined across processes is the strategy's (:mod:`rlhc.training.strategies`).
 """
 
 from __future__ import annotations
@@ -41,18 +41,18 @@ from rlhc.building.builders import (
 )
 from rlhc.config.train_schema import TrainConfig, schedules
 from rlhc.config.validation import validate
-from rlhc.distributed import Processes
 from rlhc.envs.keys import MANAGER_SELECTED, MANAGER_VALUE, STATE_VALUE, WORKER_VALUE
-from rlhc.interrupt import StopSignals, TrainingInterrupted
-from rlhc.league import League, LeaguePolicy
-from rlhc.loggers import MetricLogger
 from rlhc.modules import make_actor
 from rlhc.objectives import cut_trajectories, learner_weighted_loss
 from rlhc.storage.checkpoint import CHECKPOINT_DIR, save_checkpoint, seed_everything
 from rlhc.storage.final_team import save_team
-from rlhc.strategies import make_strategy
-from rlhc.summaries import ProgressReport, ScriptedMatches, SummaryWindow
-from rlhc.training_state import (
+from rlhc.training.distributed import Processes
+from rlhc.training.interrupt import StopSignals, TrainingInterrupted
+from rlhc.training.league import League, LeaguePolicy
+from rlhc.training.loggers import MetricLogger
+from rlhc.training.strategies import make_strategy
+from rlhc.training.summaries import ProgressReport, ScriptedMatches, SummaryWindow
+from rlhc.training.training_state import (
     Counters,
     checkpoint_to_resume,
     config_container,
@@ -74,12 +74,12 @@ class Trainer:
             the same TensorDict contract, with episode returns and observation norm from
             :func:`~rlhc.building.builders.with_training_transforms`.
         processes: this process's place in a ``torchrun`` run
-            (:func:`rlhc.distributed.setup`); ``None``: one process.
+            (:func:`rlhc.training.distributed.setup`); ``None``: one process.
 
     Keyword Args:
         resume_state: the checkpoint to continue, already loaded
             (:func:`~rlhc.storage.checkpoint.load_checkpoint`); ``None`` loads ``cfg.resume``
-            if set. Checked with :func:`~rlhc.training_state.check_resumable` either way.
+            if set. Checked with :func:`~rlhc.training.training_state.check_resumable` either way.
 
     Examples:
         >>> trainer = Trainer(cfg, Path("outputs/demo"))  # doctest: +SKIP
@@ -156,9 +156,9 @@ class Trainer:
     def train(self) -> dict[str, float]:
         """Train until ``algo.max_steps`` frames; returns the last logged metrics.
 
-        SIGINT and SIGTERM stop it cleanly (:mod:`rlhc.interrupt`): the update in
+        SIGINT and SIGTERM stop it cleanly (:mod:`rlhc.training.interrupt`): the update in
         progress finishes (a collection in progress too), a checkpoint is written and
-        :class:`~rlhc.interrupt.TrainingInterrupted` is raised. A progress line goes to
+        :class:`~rlhc.training.interrupt.TrainingInterrupted` is raised. A progress line goes to
         the ``logging`` module every tenth of the budget (with the bar on a terminal,
         above it).
 
@@ -341,7 +341,7 @@ class Trainer:
 
     # --- checkpoints ----------------------------------------------------------------
     def state(self) -> dict[str, Any]:
-        """Everything a resume (or an evaluation) needs (:mod:`rlhc.training_state`)."""
+        """Everything a resume (or an evaluation) needs (:mod:`rlhc.training.training_state`)."""
         return training_state(
             self.cfg,
             Counters(self.frames, self.iteration, self.wall_time),

@@ -28,7 +28,6 @@ from torchrl.envs import EnvBase, TransformedEnv
 
 from rlhc.config.train_schema import TrainConfig
 from rlhc.envs.torchrl_adapter import batched_game_env
-from rlhc.league import League
 from rlhc.storage.checkpoint import (
     ResumeError,
     config_differences,
@@ -36,6 +35,7 @@ from rlhc.storage.checkpoint import (
     rng_states,
     set_rng_states,
 )
+from rlhc.training.league import League
 
 
 class Counters(NamedTuple):

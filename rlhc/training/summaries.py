@@ -27,7 +27,7 @@ from tqdm.contrib.logging import logging_redirect_tqdm
 from rlhc.config.train_schema import TrainConfig
 from rlhc.envs import make_env
 from rlhc.envs.keys import DONE, EPISODE_REWARD, INFO, NEXT, STEP_COUNT, TERMINATED
-from rlhc.loggers import ProgressLines
+from rlhc.training.loggers import ProgressLines
 
 #: Every process's value, in rank order (``[value]`` for one process).
 Gather = Callable[[Any], list[Any]]
@@ -49,7 +49,7 @@ class SummaryWindow:
         self.episodes: dict[str, list[torch.Tensor]] = defaultdict(list)
 
     def add_update(self, statistics: Mapping[str, float]) -> None:
-        """One update's statistics (e.g. :meth:`rlhc.trainer.Trainer.update`'s)."""
+        """One update's statistics (e.g. :meth:`rlhc.training.trainer.Trainer.update`'s)."""
         for name, value in statistics.items():
             self.updates[name].append(value)
 

@@ -1,8 +1,8 @@
 """How the processes of a run share it: one strategy, chosen once (:func:`make_strategy`).
 
-The training loop of :class:`~rlhc.trainer.Trainer` is the same on every process; what
+The training loop of :class:`~rlhc.training.trainer.Trainer` is the same on every process; what
 differs between one process, data-parallel processes and a pipeline (see
-:mod:`rlhc.distributed` for what each computes) is where the batches come from and
+:mod:`rlhc.training.distributed` for what each computes) is where the batches come from and
 what is combined across processes. That is all here, behind the hooks the loop calls:
 
 | hook | :class:`SingleProcess` | :class:`DataParallel` | :class:`Pipeline` (learner, rank 0) |
@@ -36,7 +36,8 @@ from torchrl.collectors import Collector
 from torchrl.envs import TransformedEnv
 
 from rlhc.building.builders import Layout
-from rlhc.distributed import (
+from rlhc.storage.checkpoint import seed_everything
+from rlhc.training.distributed import (
     Processes,
     WeightChannel,
     all_reduce_gradients,
@@ -50,9 +51,8 @@ from rlhc.distributed import (
     remote_batches,
     send_batch,
 )
-from rlhc.interrupt import StopSignals
-from rlhc.storage.checkpoint import seed_everything
-from rlhc.training_state import game_rng_state
+from rlhc.training.interrupt import StopSignals
+from rlhc.training.training_state import game_rng_state
 
 
 class SingleProcess:
@@ -225,7 +225,7 @@ class DataParallel(SingleProcess):
 
 
 class Pipeline(SingleProcess):
-    """Rank 1 collects every world while rank 0 updates (see :mod:`rlhc.distributed`).
+    """Rank 1 collects every world while rank 0 updates (see :mod:`rlhc.training.distributed`).
 
     Rank 0 runs the loop on the batches rank 1 sends, with the normaliser statistics
     and game generator that come with them; rank 1 runs :meth:`serve`.
@@ -322,12 +322,12 @@ def make_strategy(processes: Processes, *, normalize_observations: bool) -> Sing
     """The strategy of this process's place in the run.
 
     Args:
-        processes: from :func:`rlhc.distributed.setup` (or ``Processes()``: one process).
+        processes: from :func:`rlhc.training.distributed.setup` (or ``Processes()``: one process).
         normalize_observations: whether the training env normalises observations
             (data-parallel processes then average the statistics).
 
     Examples:
-        >>> from rlhc.distributed import Processes
+        >>> from rlhc.training.distributed import Processes
         >>> type(make_strategy(Processes(), normalize_observations=True)).__name__
         'SingleProcess'
         >>> type(make_strategy(Processes(0, 2, "pipeline"), normalize_observations=True)).__name__
