@@ -46,10 +46,10 @@ from omegaconf import OmegaConf
 
 from benchmarks.reporting.learning import OPPONENTS, means_over_seeds, plot_curves, table
 from benchmarks.reporting.summary import code_version
+from rlhc.analysis.curves import METRICS_FILE, read_metrics
 from rlhc.evaluation.diagnostics import DIAGNOSTICS, diagnose
 from rlhc.evaluation.matches import evaluate_against, make_match_env
 from rlhc.evaluation.opponents import make_team_policy
-from rlhc.runs import METRICS_FILE, read_metrics
 from rlhc.storage.checkpoint import CHECKPOINT_DIR, load_checkpoint, seed_everything
 
 ROOT = Path(__file__).resolve().parents[1]

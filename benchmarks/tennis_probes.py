@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rlhc.runs import METRICS_FILE, read_metrics
+from rlhc.analysis.curves import METRICS_FILE, read_metrics
 
 RESULTS = Path(__file__).resolve().parent / "results" / "learning" / "tennis"
 HITS = "events/hits_over_net_per_episode"

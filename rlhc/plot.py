@@ -25,10 +25,7 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
-from rlhc.cli.report import UsageError, user_errors_in_one_line
-from rlhc.evaluation.stats import t_interval
-from rlhc.plotting import plot_groups
-from rlhc.runs import (
+from rlhc.analysis.curves import (
     METRICS_FILE,
     PAPER_METRICS,
     final_values,
@@ -37,6 +34,9 @@ from rlhc.runs import (
     panel_metrics,
     split_run_paths,
 )
+from rlhc.analysis.drawing import plot_groups
+from rlhc.cli.report import UsageError, user_errors_in_one_line
+from rlhc.evaluation.stats import t_interval
 
 PROGRAM = "rlhc.plot"
 

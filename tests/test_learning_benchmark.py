@@ -12,7 +12,7 @@ import pytest
 
 from benchmarks.reporting import figures
 from benchmarks.reporting.learning import bounds_of, panels_of
-from rlhc.runs import Curve, Run
+from rlhc.analysis.curves import Curve, Run
 
 #: ``experiment=smoke`` (tiny networks and buffers) with a budget of five summaries.
 TINY = [

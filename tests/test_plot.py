@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from rlhc import plot
-from rlhc.runs import (
+from rlhc.analysis.curves import (
     Run,
     aggregate,
     ema_smooth,

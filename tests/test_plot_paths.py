@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from rlhc import plot
-from rlhc.runs import find_runs, split_run_paths
+from rlhc.analysis.curves import find_runs, split_run_paths
 
 ROOT = Path(__file__).resolve().parents[1]
 PNG = b"\x89PNG\r\n\x1a\n"

@@ -46,8 +46,8 @@ from benchmarks.reporting.summary import (
     write_summary,
 )
 from benchmarks.reporting.tournament import Series
+from rlhc.analysis.curves import ema_smooth
 from rlhc.evaluation.stats import t_interval
-from rlhc.runs import ema_smooth
 
 
 def toy_study(root: Path) -> Study:

@@ -19,7 +19,7 @@ from benchmarks.reporting.blocks import HAND_WRITTEN, blocks_of
 from benchmarks.reporting.document import build_report
 from benchmarks.reporting.plan import studies
 from benchmarks.reporting.summary import SUMMARY_FILE
-from rlhc.runs import METRICS_FILE
+from rlhc.analysis.curves import METRICS_FILE
 
 ROOT = report_cli.ROOT
 COMMITTED = ROOT / "docs" / "RESULTS.md"

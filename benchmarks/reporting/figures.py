@@ -1,6 +1,6 @@
 """The report's figures: drawing only; the runs they show are read by the caller.
 
-``RESULTS.md``'s curves per study are :func:`rlhc.plotting.plot_groups`'s (the paper's
+``RESULTS.md``'s curves per study are :func:`rlhc.analysis.drawing.plot_groups`'s (the paper's
 four metrics plus whether the teams play); ``benchmarks/learning.py``'s panels per game
 are :func:`draw_learning_curves`'s.
 """
@@ -11,8 +11,8 @@ import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from rlhc.plotting import plot_groups
-from rlhc.runs import PAPER_METRICS, Run, aggregate
+from rlhc.analysis.curves import PAPER_METRICS, Run, aggregate
+from rlhc.analysis.drawing import plot_groups
 
 from .runs import StudyRun
 from .study import PLAY_METRIC, SMOOTHING
@@ -57,7 +57,7 @@ def draw_learning_curves(
         out: the PNG to write.
         smoothing: TensorBoard smoothing weight, in ``[0, 1)``.
         bounds: ``metrics.csv`` column -> the values it can take; its band is clipped
-            there (:func:`rlhc.runs.aggregate`), the mean is not. Others are unbounded.
+            there (:func:`rlhc.analysis.curves.aggregate`), the mean is not. Others are unbounded.
 
     Returns:
         ``out``.

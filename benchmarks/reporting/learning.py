@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from rlhc.runs import METRICS_FILE, Run, read_metrics
+from rlhc.analysis.curves import METRICS_FILE, Run, read_metrics
 
 from .figures import draw_learning_curves
 from .study import PLAY_METRIC

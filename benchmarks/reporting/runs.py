@@ -17,7 +17,7 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-from rlhc.runs import METRICS_FILE, Run, differing_keys, read_config, read_metrics
+from rlhc.analysis.curves import METRICS_FILE, Run, differing_keys, read_config, read_metrics
 
 from .plan import PlannedRun, Study
 from .summary import RunSummary, read_summary

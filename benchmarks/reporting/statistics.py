@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rlhc.analysis.curves import Run, ema_smooth, final_values
 from rlhc.evaluation.stats import t_interval, welch_t_test
-from rlhc.runs import Run, ema_smooth, final_values
 
 from .formatting import fmt
 from .runs import StudyRun
@@ -37,7 +37,7 @@ def smoothed_final(
 ) -> float | None:
     """Mean of the smoothed curve over its last ``fraction`` of steps (``None``: not logged).
 
-    The window is that of :func:`rlhc.runs.final_values`, applied to the smoothed curve.
+    The window is that of :func:`rlhc.analysis.curves.final_values`, applied to the smoothed curve.
     """
     steps, curve = smoothed(run, metric, smoothing)
     if not steps.size:

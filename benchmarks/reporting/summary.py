@@ -20,7 +20,7 @@ from typing import Any
 
 from omegaconf import OmegaConf
 
-from rlhc.runs import METRICS_FILE, read_metrics
+from rlhc.analysis.curves import METRICS_FILE, read_metrics
 
 from .plan import PlannedRun
 

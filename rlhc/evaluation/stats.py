@@ -6,7 +6,7 @@
   the regime of a strong policy against a weak one.
 * Means over seeds use the **Student t** interval (few seeds, unknown variance).
 * Two configurations are compared with **Welch's t-test** (unequal variances), on
-  per-run values such as :func:`rlhc.runs.final_values`.
+  per-run values such as :func:`rlhc.analysis.curves.final_values`.
 * Over tasks and seeds, as Agarwal et al. (2021, "Deep RL at the edge of the
   statistical precipice", the ``rliable`` library) recommend: the **interquartile mean**
   with a **stratified bootstrap** interval, and the **probability of improvement**

@@ -1,6 +1,6 @@
 """Figures of learning curves: the paper's four metrics, a line per configuration.
 
-Runs are read, grouped and averaged by :mod:`rlhc.runs`; this module draws them.
+Runs are read, grouped and averaged by :mod:`rlhc.analysis.curves`; this module draws them.
 
 Examples:
     >>> import tempfile
@@ -19,7 +19,7 @@ import os
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
-from rlhc.runs import PAPER_METRICS, Run, aggregate, group_runs, load_runs, panel_metrics
+from rlhc.analysis.curves import PAPER_METRICS, Run, aggregate, group_runs, load_runs, panel_metrics
 
 
 def plot_runs(
@@ -61,7 +61,7 @@ def plot_groups(
     """Draw runs already grouped by configuration: ``label -> runs`` (see :func:`plot_runs`).
 
     ``bounds`` maps a metric leaf to the values it can take; its bands are clipped
-    there (:func:`rlhc.runs.aggregate`). Metrics not in it are left unbounded.
+    there (:func:`rlhc.analysis.curves.aggregate`). Metrics not in it are left unbounded.
 
     Raises:
         ValueError: no run logged any of ``metrics``.

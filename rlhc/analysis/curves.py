@@ -15,7 +15,7 @@ per summary, ``step`` = frames) and its composed config (``.hydra/config.yaml``,
    numbers a reproduction compares with Welch's t-test
    (:func:`rlhc.evaluation.stats.welch_t_test`).
 
-Figures are drawn by :mod:`rlhc.plotting` from what this module reads.
+Figures are drawn by :mod:`rlhc.analysis.drawing` from what this module reads.
 
 Examples:
     Three tiny runs, two seeds of PPO (``critic.fusion=local``) and one of RLHC:
