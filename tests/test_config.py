@@ -8,7 +8,7 @@ from hydra.errors import ConfigCompositionException
 from omegaconf.errors import ConfigKeyError, ValidationError
 
 from rlhc.config.train_schema import TrainConfig
-from rlhc.envs.config import SoccerEnvConfig, TennisEnvConfig
+from rlhc.envs.schemas import SoccerEnvConfig, TennisEnvConfig
 
 
 @pytest.mark.parametrize("env", options("env"))

@@ -170,7 +170,7 @@ def table() -> str:
 
 
 def _env_schema(game: str) -> Any:
-    from rlhc.envs.config import SoccerEnvConfig, TennisEnvConfig
+    from rlhc.envs.schemas import SoccerEnvConfig, TennisEnvConfig
 
     return {"tennis": TennisEnvConfig, "soccer": SoccerEnvConfig}[game]()
 

@@ -8,8 +8,8 @@ paper's Table 3 values live only in ``conf/table3/<env>.yaml`` (the schemas mark
 Every section of the config has its schema here, the league's and the shaping's
 included (their code: :mod:`rlhc.training.league`, :mod:`rlhc.building.shaping`), so that the schemas and
 their checks (:mod:`rlhc.config.validation`) import nothing of the code they configure;
-only the game options (:mod:`rlhc.envs.config`) and the network settings
-(:mod:`rlhc.modules.config`), which their own layers read, live there.
+only the game options (:mod:`rlhc.envs.schemas`) and the network settings
+(:mod:`rlhc.modules.schemas`), which their own layers read, live there.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import Any
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, OmegaConf
 
-from rlhc.modules.config import NetworkConfig
+from rlhc.modules.schemas import NetworkConfig
 
 #: ``resume=auto``: continue from the run directory's own checkpoint, if it holds one.
 RESUME_AUTO = "auto"

@@ -32,7 +32,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from rlhc.envs.base import BatchedGame
-    from rlhc.envs.config import EnvConfig
+    from rlhc.envs.schemas import EnvConfig
 
 #: A scripted team: the game (all its worlds, in their current state) -> an action for
 #: every agent of every group, ``{group: [N, n_g, ...]}``, as :meth:`BatchedGame.step`
@@ -54,7 +54,7 @@ class GameSpec:
         game: the :class:`~rlhc.envs.base.BatchedGame` subclass, built as
             ``game(num_worlds=N, seed=seed, **options)``.
         env_config: the Hydra schema of its options, a subclass of
-            :class:`~rlhc.envs.config.EnvConfig` whose ``name`` defaults to ``name``.
+            :class:`~rlhc.envs.schemas.EnvConfig` whose ``name`` defaults to ``name``.
         groups: the names of its agent groups, in the game's order.
         scripted: its scripted team (:data:`ScriptedTeam`): the ``scripted`` player of
             ``rlhc.evaluate`` and of the league.

@@ -7,8 +7,8 @@ Examples:
 from __future__ import annotations
 
 from rlhc.modules.actors import make_actor
-from rlhc.modules.config import ACTIVATIONS, NetworkConfig
 from rlhc.modules.critics import make_manager_critic, make_worker_critic
+from rlhc.modules.schemas import ACTIVATIONS, NetworkConfig
 from rlhc.modules.shared import make_actor_value, shared_trunk_error
 from rlhc.modules.specs import EnvSpecs, HasSpecs
 

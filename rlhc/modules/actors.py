@@ -29,8 +29,8 @@ from torchrl.data import Bounded, Categorical, Composite
 from torchrl.modules import IndependentNormal, MultiAgentMLP, ProbabilisticActor, TanhNormal
 
 from rlhc.envs.keys import ACTION, LOC, LOGITS, OBSERVATION, SCALE
-from rlhc.modules.config import NetworkConfig
 from rlhc.modules.mlp import group_mlp
+from rlhc.modules.schemas import NetworkConfig
 from rlhc.modules.shared import make_actor_value
 from rlhc.modules.specs import HasSpecs, action_spec, observation_size
 

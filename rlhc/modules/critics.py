@@ -11,8 +11,8 @@ from __future__ import annotations
 from tensordict.nn import TensorDictModule
 
 from rlhc.envs.keys import MANAGER_OBSERVATION, MANAGER_VALUE, OBSERVATION, WORKER_VALUE
-from rlhc.modules.config import NetworkConfig
 from rlhc.modules.mlp import group_mlp
+from rlhc.modules.schemas import NetworkConfig
 from rlhc.modules.specs import HasSpecs, observation_size
 
 

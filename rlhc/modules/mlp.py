@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from torchrl.modules import MultiAgentMLP
 
-from rlhc.modules.config import NetworkConfig
+from rlhc.modules.schemas import NetworkConfig
 
 
 def group_mlp(n_inputs: int, n_outputs: int, n_agents: int, cfg: NetworkConfig) -> MultiAgentMLP:

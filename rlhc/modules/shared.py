@@ -30,7 +30,7 @@ from torchrl.data import Categorical, Composite
 from torchrl.modules import ActorValueOperator, MultiAgentMLP, ProbabilisticActor
 
 from rlhc.envs.keys import ACTION, HIDDEN, LOGITS, OBSERVATION, WORKER_VALUE
-from rlhc.modules.config import NetworkConfig
+from rlhc.modules.schemas import NetworkConfig
 from rlhc.modules.specs import HasSpecs, action_spec, observation_size
 
 

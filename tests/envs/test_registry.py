@@ -12,8 +12,8 @@ import yaml
 
 from rlhc.envs import GAMES, game_spec, games, make_env, make_game
 from rlhc.envs.base import validate_actions
-from rlhc.envs.config import EnvConfig
 from rlhc.envs.registry import register_game
+from rlhc.envs.schemas import EnvConfig
 
 CONF = Path(__file__).resolve().parents[2] / "conf" / "env"
 UNKNOWN = r"unknown env 'curling'; choose one of \['soccer', 'tennis'\]"

@@ -21,7 +21,7 @@ from torch.testing import assert_close
 from torchrl.modules import TanhNormal
 
 from rlhc.modules import NetworkConfig, make_actor, make_manager_critic, make_worker_critic
-from rlhc.modules.config import ACTION_DISTRIBUTIONS
+from rlhc.modules.schemas import ACTION_DISTRIBUTIONS
 from rlhc.objectives import LOSS_KEYS, make_ppo_loss
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "objectives"))

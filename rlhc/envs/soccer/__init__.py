@@ -17,11 +17,11 @@ from typing import Any
 from pettingzoo import AECEnv
 
 from rlhc.envs import make_aec_env, make_parallel_env
-from rlhc.envs.config import SoccerEnvConfig
 from rlhc.envs.pettingzoo_adapter import BatchedGameParallelEnv
 from rlhc.envs.registry import GameSpec, register_game
-from rlhc.envs.soccer.config import SoccerOptions
+from rlhc.envs.schemas import SoccerEnvConfig
 from rlhc.envs.soccer.game import SoccerGame
+from rlhc.envs.soccer.options import SoccerOptions
 from rlhc.envs.soccer.scripted import scripted_actions, scripted_team
 from rlhc.envs.soccer.shaping import ball_progress
 

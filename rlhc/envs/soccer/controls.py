@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rlhc.envs.soccer.config import SoccerOptions
+from rlhc.envs.soccer.options import SoccerOptions
 from rlhc.envs.soccer.physics import BALL, NUM_PLAYERS, facing_vectors
 
 STRIKER_ACTIONS: tuple[str, ...] = (

@@ -3,7 +3,7 @@
 A top-down pitch (20 m × 10 m by default) closed by walls, a 6 m goal in each end with a
 2 m deep net, a ball and four round players with a facing direction, simulated by
 pymunk. Team 0 defends the goal at ``-x``, team 1 the goal at ``+x``. The proportions are
-those of ML-Agents' SoccerTwos (sources in :mod:`rlhc.envs.soccer.config`).
+those of ML-Agents' SoccerTwos (sources in :mod:`rlhc.envs.soccer.options`).
 
 =================== ========================================================================
 agents              ``striker_0``, ``striker_1``, ``goalie_0``, ``goalie_1`` (index = team)
@@ -30,7 +30,7 @@ state               ``float32 [28]``: ball (x, y, vx, vy), then per player in ag
 
 Observations are egocentric (the agent's position, facing and team), so team 1 sees the
 pitch as team 0 does after a 180° rotation about the centre spot: one network plays both
-sides. All options are fields of :class:`~rlhc.envs.soccer.config.SoccerOptions`.
+sides. All options are fields of :class:`~rlhc.envs.soccer.options.SoccerOptions`.
 """
 
 from __future__ import annotations
@@ -47,9 +47,9 @@ from rlhc.envs.base import (
     GroupObservation,
     GroupSpec,
 )
-from rlhc.envs.soccer.config import SoccerOptions
 from rlhc.envs.soccer.controls import GOALIE_ACTIONS, STRIKER_ACTIONS, Controls
 from rlhc.envs.soccer.observations import MANAGER_SIZE, WORKER_SIZE, RaySensors
+from rlhc.envs.soccer.options import SoccerOptions
 from rlhc.envs.soccer.physics import (
     BALL,
     NUM_PLAYERS,
@@ -71,7 +71,7 @@ class SoccerGame(BatchedGame):
     Args:
         num_worlds: number of pitches.
         seed: seed of the kick-off jitter.
-        **options: fields of :class:`~rlhc.envs.soccer.config.SoccerOptions`, e.g.
+        **options: fields of :class:`~rlhc.envs.soccer.options.SoccerOptions`, e.g.
             ``max_cycles=1000`` or ``striker_time_reward=0.0``; an unknown name is a
             ``ValueError`` that names it.
 

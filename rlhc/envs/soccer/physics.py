@@ -30,7 +30,7 @@ import numpy as np
 import pymunk
 import pymunk.batch
 
-from rlhc.envs.soccer.config import WALL_THICKNESS, SoccerOptions
+from rlhc.envs.soccer.options import WALL_THICKNESS, SoccerOptions
 
 #: players in body order, then the ball.
 PLAYER_NAMES: tuple[str, ...] = ("striker_0", "striker_1", "goalie_0", "goalie_1")

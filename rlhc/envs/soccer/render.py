@@ -14,8 +14,8 @@ from typing import Protocol
 import numpy as np
 
 from rlhc.envs.render import Canvas, Color
-from rlhc.envs.soccer.config import SoccerOptions
 from rlhc.envs.soccer.observations import RaySensors
+from rlhc.envs.soccer.options import SoccerOptions
 from rlhc.envs.soccer.physics import (
     BALL,
     NUM_PLAYERS,

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rlhc.envs.soccer.config import SoccerOptions
+from rlhc.envs.soccer.options import SoccerOptions
 from rlhc.envs.soccer.physics import BALL, BODIES_PER_WORLD, PLAYER_TEAM, PitchGeometry
 
 #: sparse reward when the agent's team scores / concedes, per role (paper Table 2).

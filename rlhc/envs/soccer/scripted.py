@@ -22,9 +22,9 @@ from __future__ import annotations
 import numpy as np
 
 from rlhc.envs.base import BatchedGame
-from rlhc.envs.soccer.config import SoccerOptions
 from rlhc.envs.soccer.controls import GOALIE_ACTIONS, STRIKER_ACTIONS
 from rlhc.envs.soccer.game import SoccerGame
+from rlhc.envs.soccer.options import SoccerOptions
 
 _STRIKER = {name: index for index, name in enumerate(STRIKER_ACTIONS)}
 _GOALIE = {name: index for index, name in enumerate(GOALIE_ACTIONS)}

@@ -23,9 +23,9 @@ from typing import Any
 from pettingzoo.utils.env import AECEnv
 
 from rlhc.envs import make_aec_env, make_parallel_env
-from rlhc.envs.config import TennisEnvConfig
 from rlhc.envs.pettingzoo_adapter import BatchedGameParallelEnv
 from rlhc.envs.registry import GameSpec, register_game
+from rlhc.envs.schemas import TennisEnvConfig
 from rlhc.envs.tennis.game import TennisGame
 from rlhc.envs.tennis.scripted import ScriptedTennisPolicy, scripted_team
 

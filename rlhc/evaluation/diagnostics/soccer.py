@@ -56,9 +56,9 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
 from rlhc.envs import make_env
 from rlhc.envs.keys import ACTION, DONE, NEXT, RESET, SCORING_TEAM
-from rlhc.envs.soccer.config import SoccerOptions
 from rlhc.envs.soccer.controls import GOALIE_ACTIONS, STRIKER_ACTIONS
 from rlhc.envs.soccer.game import SoccerGame
+from rlhc.envs.soccer.options import SoccerOptions
 from rlhc.envs.torchrl_adapter import BatchedGameEnv
 from rlhc.evaluation.diagnostics.soccer_events import SHOT_OUTCOMES, PlayRecord, count_events
 from rlhc.evaluation.matches import route_actions
@@ -141,7 +141,7 @@ def summarise_play(
 
     Args:
         record: the play.
-        options: the game's :class:`~rlhc.envs.soccer.config.SoccerOptions`.
+        options: the game's :class:`~rlhc.envs.soccer.options.SoccerOptions`.
         teams: name -> the team (0 or 1) that name played in each pitch, ``int [K]``
             each; several arrays pool their columns (self-play: both sides).
 
@@ -291,7 +291,7 @@ def scripted_diagnostics(
         worlds: pitches played at once.
         decisions: decisions per pitch.
         seed: the pitches' seed.
-        **game_options: soccer options (:class:`~rlhc.envs.soccer.config.SoccerOptions`).
+        **game_options: soccer options (:class:`~rlhc.envs.soccer.options.SoccerOptions`).
 
     Returns:
         ``worlds``, ``decisions``, ``seed`` and ``scripted_vs_scripted`` with teams

@@ -37,7 +37,7 @@ A bounce that begins and ends within one decision is not seen in touch (measured
 against pymunk's own contacts on scripted play in the tests: most touches are seen).
 
 Examples:
-    >>> from rlhc.envs.soccer.config import SoccerOptions
+    >>> from rlhc.envs.soccer.options import SoccerOptions
     >>> rolling_reach(np.array([6.7]), SoccerOptions()).round(1)  # a kick rolls ~18 m
     array([18.5])
 """
@@ -48,8 +48,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rlhc.envs.soccer.config import SoccerOptions
 from rlhc.envs.soccer.controls import KICK_REACH
+from rlhc.envs.soccer.options import SoccerOptions
 
 #: The outcomes of a shot on target, in the order they are checked.
 SHOT_OUTCOMES = ("goal", "saved", "blocked", "retouched", "missed", "unfinished")
