@@ -1,26 +1,61 @@
-"""The package's import graph: no cycles, and every import goes down the layers.
+"""The package's import graph: no cycles, and every import goes down the floors.
 
 The graph is read from the source files with :mod:`ast` (nothing is imported): every
 ``import`` and ``from … import`` of an ``rlhc`` module, relative ones resolved, at any
 depth (a function-level import is still a dependency), except inside
 ``if TYPE_CHECKING:`` blocks, which only the type checker runs.
 
-The layers are README's "Layout", lowest first: ``rlhc.envs`` (the games, numpy and
-the adapters), ``rlhc.modules`` (networks), ``rlhc.objectives`` (the learning core),
-then everything else in ``rlhc`` (trainer, configs, evaluation, …); below them all,
-``rlhc.errors``, which imports nothing. A module may import its own layer and the
-layers below it, never one above.
+The floors are README's "Layout", lowest first (:data:`LAYERS`):
+
+1. ``rlhc.errors``: the one error type (and ``rlhc`` itself, its ``__init__``);
+2. ``rlhc.envs``: the games (numpy) and their PettingZoo and TorchRL adapters;
+3. ``rlhc.modules``: the networks;
+4. ``rlhc.objectives``: the learning core (hierarchical value estimation, PPO);
+5. ``rlhc.config``: the settings of both commands, their schemas and checks;
+6. ``rlhc.storage``: checkpoint files and the final team (plain dicts and files);
+7. ``rlhc.building``: a config turned into env, networks and losses;
+8. ``rlhc.evaluation``: matches, Elo, the restored policies and built-in teams;
+9. ``rlhc.training``: the loop, which evaluates itself and plays a league;
+10. ``rlhc.analysis``: finished runs read back, their curves drawn;
+11. ``rlhc.cli``: what the entry points share (one-line errors, Hydra callbacks);
+12. the entry points, wiring only: ``rlhc.run``, ``rlhc.evaluate``, ``rlhc.plot`` and
+    ``rlhc.evaluation.diagnostics.__main__`` (``python -m rlhc.evaluation.diagnostics``).
+
+A module may import its own floor and the floors below it, never one above. Some
+neighbours do not import each other at all (``rlhc.storage`` imports no other
+``rlhc`` module; ``rlhc.training`` and ``rlhc.analysis`` are independent): their order
+is the one the README draws, and holds them to it.
 """
 
 from __future__ import annotations
 
 import ast
+import re
 from collections.abc import Iterator
 from pathlib import Path
 
+import pytest
+
 PACKAGE = Path(__file__).resolve().parents[1] / "rlhc"
-#: README "Layout", lowest layer first (a module's layer: the longest prefix it has).
-LAYERS = ("rlhc.errors", "rlhc.envs", "rlhc.modules", "rlhc.objectives", "rlhc")
+README = PACKAGE.parent / "README.md"
+#: The package itself: its ``__init__`` only (every other module has a floor of its own).
+ROOT = "rlhc"
+#: README "Layout", lowest floor first: the modules and packages of each floor (a
+#: module's floor: the longest of these names it is, or lies under).
+LAYERS: tuple[tuple[str, ...], ...] = (
+    (ROOT, "rlhc.errors"),
+    ("rlhc.envs",),
+    ("rlhc.modules",),
+    ("rlhc.objectives",),
+    ("rlhc.config",),
+    ("rlhc.storage",),
+    ("rlhc.building",),
+    ("rlhc.evaluation",),
+    ("rlhc.training",),
+    ("rlhc.analysis",),
+    ("rlhc.cli",),
+    ("rlhc.run", "rlhc.evaluate", "rlhc.plot", "rlhc.evaluation.diagnostics.__main__"),
+)
 
 
 def module_name(path: Path) -> str:
@@ -124,16 +159,48 @@ def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
     return None
 
 
+def covers(name: str, module: str) -> bool:
+    """Whether a floor's ``name`` covers ``module``: it is ``name`` or lies under it."""
+    return module == name or (name != ROOT and module.startswith(name + "."))
+
+
 def layer(module: str) -> int:
-    """The index in :data:`LAYERS` of the layer ``module`` belongs to (longest prefix)."""
+    """The index in :data:`LAYERS` of the floor ``module`` is on (its longest name)."""
     matches = [
-        (len(prefix), index)
-        for index, prefix in enumerate(LAYERS)
-        if module == prefix or module.startswith(prefix + ".")
+        (len(name), index)
+        for index, floor in enumerate(LAYERS)
+        for name in floor
+        if covers(name, module)
     ]
     if not matches:
-        raise ValueError(f"{module!r} is in none of the layers {LAYERS}")
+        raise ValueError(f"{module!r} is on none of the floors {LAYERS}")
     return max(matches)[1]
+
+
+def floor_names(index: int) -> str:
+    """A floor's names, for messages: ``rlhc.run, rlhc.evaluate, …``."""
+    return ", ".join(LAYERS[index])
+
+
+def readme_floors() -> list[tuple[str, ...]]:
+    """The ``rlhc`` rows of README's "Layout" table, in order, as module names.
+
+    Each row's first cell names its modules and packages in backticks
+    (``rlhc/envs/``, ``rlhc/run.py``); rows of other folders (``conf/``, …) are skipped.
+    """
+    text = README.read_text()
+    section = text[text.index("\n## Layout\n") :].split("\n## ")[1]
+    floors = []
+    for line in section.splitlines():
+        cells = line.split("|")
+        if len(cells) < 3:
+            continue
+        paths = re.findall(r"`(rlhc/[^`]*)`", cells[1])
+        if paths:
+            floors.append(
+                tuple(path.rstrip("/").removesuffix(".py").replace("/", ".") for path in paths)
+            )
+    return floors
 
 
 def test_the_graph_sees_relative_lazy_and_type_checking_imports() -> None:
@@ -153,12 +220,14 @@ def test_the_graph_sees_relative_lazy_and_type_checking_imports() -> None:
     assert found == {"rlhc.envs.tennis.physics", "rlhc.envs.tennis.rules", "rlhc.envs.render"}
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b"}, "b": set()}) is None
-    assert [layer(m) for m in ("rlhc.errors", "rlhc.envs.keys", "rlhc.objectives", "rlhc.run")] == [
-        0,
-        1,
-        3,
-        4,
-    ]
+    modules = ("rlhc.errors", "rlhc.envs.keys", "rlhc.objectives", "rlhc.run", "rlhc")
+    assert [layer(m) for m in modules] == [0, 1, 3, len(LAYERS) - 1, 0]
+    # The longest name wins: diagnostics are evaluation, their command an entry point.
+    assert layer("rlhc.evaluation.diagnostics.soccer") == LAYERS.index(("rlhc.evaluation",))
+    assert layer("rlhc.evaluation.diagnostics.__main__") == len(LAYERS) - 1
+    # The package's own name covers its __init__ only, never a module without a floor.
+    with pytest.raises(ValueError, match="none of the floors"):
+        layer("rlhc.somewhere")
 
 
 def test_no_import_cycle_inside_rlhc() -> None:
@@ -166,14 +235,31 @@ def test_no_import_cycle_inside_rlhc() -> None:
     assert cycle is None, "import cycle: " + " -> ".join(cycle or [])
 
 
-def test_imports_go_down_the_layers_of_the_readme_layout() -> None:
+def test_every_module_is_on_a_floor_and_every_floor_exists() -> None:
+    graph = import_graph()
+    homeless = [m for m in graph if not any(covers(n, m) for floor in LAYERS for n in floor)]
+    assert not homeless, f"modules on no floor of LAYERS (add them to one): {homeless}"
+    missing = [name for floor in LAYERS for name in floor if name not in graph]
+    assert not missing, f"floors that name no module of rlhc/: {missing}"
+
+
+def test_the_readme_layout_draws_these_floors_in_this_order() -> None:
+    drawn = readme_floors()
+    tested = [tuple(name for name in floor if name != ROOT) for floor in LAYERS]
+    assert drawn == tested, (
+        "README's Layout table and LAYERS differ; README, lowest first:\n"
+        + "\n".join(map(str, drawn))
+    )
+
+
+def test_imports_go_down_the_floors_of_the_readme_layout() -> None:
     upward = [
-        f"{module} ({LAYERS[layer(module)]}) imports {target} ({LAYERS[layer(target)]})"
+        f"{module} ({floor_names(layer(module))}) imports {target} ({floor_names(layer(target))})"
         for module, targets in import_graph().items()
         for target in sorted(targets)
         if layer(target) > layer(module)
     ]
-    assert not upward, "imports from a lower layer to a higher one:\n" + "\n".join(upward)
+    assert not upward, "imports from a lower floor to a higher one:\n" + "\n".join(upward)
 
 
 def test_the_trainer_reaches_other_processes_only_through_its_strategy() -> None:
@@ -200,6 +286,6 @@ def test_the_trainer_reaches_other_processes_only_through_its_strategy() -> None
     assert all(
         not target.startswith("rlhc.training.distributed")
         for module, targets in graph.items()
-        if layer(module) == LAYERS.index("rlhc.objectives")
+        if layer(module) == LAYERS.index(("rlhc.objectives",))
         for target in targets
     )

@@ -6,10 +6,10 @@ paper's Table 3 values live only in ``conf/table3/<env>.yaml`` (the schemas mark
 ``MISSING``); the defaults here are the settings the paper does not give.
 
 Every section of the config has its schema here, the league's and the shaping's
-included (their code: :mod:`rlhc.training.league`, :mod:`rlhc.building.shaping`), so that the schemas and
-their checks (:mod:`rlhc.config.validation`) import nothing of the code they configure;
-only the game options (:mod:`rlhc.envs.schemas`) and the network settings
-(:mod:`rlhc.modules.schemas`), which their own layers read, live there.
+included (their code: :mod:`rlhc.training.league`, :mod:`rlhc.building.shaping`), so
+that the schemas and their checks (:mod:`rlhc.config.validation`) import nothing of the
+code they configure; only the game options (:mod:`rlhc.envs.schemas`) and the network
+settings (:mod:`rlhc.modules.schemas`), which their own floors read, live there.
 """
 
 from __future__ import annotations

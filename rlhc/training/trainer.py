@@ -5,9 +5,10 @@ group from every world, :meth:`Trainer.update` on them (estimate fused values an
 advantages per group, then ``epochs`` passes of minibatch PPO), log, checkpoint. Both
 teams of a game share each group's policy (symmetric self-play).
 
-Units are ML-Agents 0.5's, the trainer the paper ran (see :class:`~rlhc.config.train_schema.PPOConfig`
-and :class:`~rlhc.building.builders.Layout`): the budget, summary and checkpoint periods count
-world-decisions ("frames"), buffer and minibatch count agent-experiences per group.
+Units are ML-Agents 0.5's, the trainer the paper ran (see
+:class:`~rlhc.config.train_schema.PPOConfig` and :class:`~rlhc.building.builders.Layout`):
+the budget, summary and checkpoint periods count world-decisions ("frames"), buffer and
+minibatch count agent-experiences per group.
 
 Under ``torchrun`` the same loop runs on every process; where its batches come from and
 what is combined across processes is the strategy's (:mod:`rlhc.training.strategies`).
