@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import os
+import pickletools
 import random
 import signal
 import subprocess
 import sys
 import textwrap
 import time
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -172,6 +174,30 @@ def test_a_foreign_file_is_not_a_checkpoint(tmp_path: Path) -> None:
     torch.save({"frames": 256}, path)  # no format_version
     with pytest.raises(ValueError, match="format 1"):
         load_checkpoint(path)
+
+
+def pickled_globals(path: Path) -> set[str]:
+    """Every ``module.name`` that a ``torch.save`` file's pickle names (read, not loaded)."""
+    with zipfile.ZipFile(path) as archive:
+        data = archive.read(next(n for n in archive.namelist() if n.endswith("data.pkl")))
+    names = set()
+    for opcode, arg, _ in pickletools.genops(data):
+        # torch.save pickles with protocol 2: classes are GLOBAL opcodes, "module name".
+        assert opcode.name != "STACK_GLOBAL", f"{path}: protocol 4+, read its names otherwise"
+        if opcode.name == "GLOBAL":
+            names.add(str(arg).replace(" ", "."))
+    return names
+
+
+def test_committed_teams_and_checkpoints_pickle_no_rlhc_class() -> None:
+    """The committed ``.pt`` files (loaded with ``weights_only=False``) name torch's,
+    numpy's and the standard library's classes only, none of rlhc's: moving or renaming
+    a module of rlhc cannot break loading them."""
+    files = sorted((ROOT / "benchmarks" / "results").rglob("*.pt"))
+    assert files
+    named = {name for path in files for name in pickled_globals(path)}
+    assert "torch._utils._rebuild_tensor_v2" in named
+    assert not [name for name in named if name.split(".")[0] == "rlhc"], sorted(named)
 
 
 def test_saving_onto_the_link_name_is_refused(tmp_path: Path) -> None:
