@@ -2,7 +2,7 @@
 
 Builds the trainer of a preset, collects one batch, estimates its advantages, then times
 passes over its minibatches (loss forward, backward, optimiser step, as
-:meth:`rlhc.trainer.Trainer.update` does them) eagerly and under ``torch.compile``: the
+:meth:`rlhc.training.trainer.Trainer.update` does them) eagerly and under ``torch.compile``: the
 first compiled minibatch (compile time) apart from the steady passes, and TorchDynamo's
 counts of graphs, graph breaks and frames compiled. Nothing is kept of the training.
 
@@ -30,8 +30,8 @@ from tensordict import TensorDictBase
 from torch._dynamo.utils import counters
 
 from benchmarks.reporting.summary import code_version
-from rlhc.config import compose_config
-from rlhc.trainer import Trainer
+from rlhc.config.train_schema import compose_config
+from rlhc.training.trainer import Trainer
 
 RESULTS = Path(__file__).resolve().parent / "results" / "compile_update.json"
 
