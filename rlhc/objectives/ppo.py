@@ -31,12 +31,35 @@ LOSS_KEYS: tuple[str, ...] = ("loss_objective", "loss_critic", "loss_entropy")
 LOSS_WORKER_CRITIC = "loss_worker_critic"
 LOSS_MANAGER_CRITIC = "loss_manager_critic"
 EXPLAINED_VARIANCE = "explained_variance"
+EXPLAINED_VARIANCE_WORKER = "explained_variance_worker"
+EXPLAINED_VARIANCE_MANAGER = "explained_variance_manager"
 
 
 class _CriticTerms(NamedTuple):
     worker: Tensor
     manager: Tensor | None  # None: the manager critic is not run (PPO)
-    explained_variance: Tensor
+    explained_variance: Tensor  # of the fused value
+    worker_explained_variance: Tensor
+    manager_explained_variance: Tensor | None
+
+
+def explained_variance(target: Tensor, value: Tensor) -> Tensor:
+    """``1 - Var(target - value) / Var(target)`` over every element (no gradient).
+
+    1 for a perfect prediction (up to a constant offset), 0 for a constant, negative
+    for worse than a constant.
+
+    Examples:
+        >>> target = torch.tensor([1.0, 2.0, 3.0])
+        >>> explained_variance(target, target + 1.0)
+        tensor(1.)
+        >>> round(explained_variance(target, target.flip(0)).item(), 4)
+        -3.0
+    """
+    with torch.no_grad():
+        return 1.0 - (target - value).var(correction=0) / (
+            target.var(correction=0) + torch.finfo(target.dtype).eps
+        )
 
 
 #: Gamma and lambda of an estimator built without them (TorchRL's GAE defaults).
@@ -73,11 +96,14 @@ class HierarchicalPPOLoss(ClipPPOLoss):
     ``loss_critic`` (the sum of the two critic terms) and ``explained_variance`` (of
     the current fused value), plus detached diagnostics ``loss_worker_critic`` and
     ``loss_manager_critic`` (the two terms, which add up to ``loss_critic``, reduced
-    as TorchRL reduces ``loss_critic``). Only :data:`LOSS_KEYS` carry gradient.
+    as TorchRL reduces ``loss_critic``) and ``explained_variance_worker`` and
+    ``explained_variance_manager`` (of each critic's value against the same target).
+    Only :data:`LOSS_KEYS` carry gradient.
 
     Under ``"local"`` fusion (PPO) the estimator does not run the manager critic unless
     built with ``manager_diagnostics=True``; the loss then neither evaluates nor trains
-    it: ``loss_critic`` is the worker's term alone and ``loss_manager_critic`` is absent.
+    it: ``loss_critic`` is the worker's term alone and ``loss_manager_critic`` and
+    ``explained_variance_manager`` are absent.
 
     Raises:
         ValueError: ``critic_coeff <= 0``, ``clip_value`` or ``separate_losses`` given.
@@ -145,12 +171,19 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             **ppo_kwargs,
         )
         # What the last loss_critic call computed, for forward's diagnostics (detached).
-        self._critic_split: tuple[Tensor, Tensor | None] | None = None
+        self._critic_split: _CriticTerms | None = None
 
     @property
     def out_keys(self) -> list[str]:
         torchrl_keys = [key for key in super().out_keys if key != "loss_critic"]
-        extra = ["loss_critic", LOSS_WORKER_CRITIC, LOSS_MANAGER_CRITIC, EXPLAINED_VARIANCE]
+        extra = [
+            "loss_critic",
+            LOSS_WORKER_CRITIC,
+            LOSS_MANAGER_CRITIC,
+            EXPLAINED_VARIANCE,
+            EXPLAINED_VARIANCE_WORKER,
+            EXPLAINED_VARIANCE_MANAGER,
+        ]
         return list(dict.fromkeys([*torchrl_keys, *extra]))
 
     @out_keys.setter
@@ -240,10 +273,11 @@ class HierarchicalPPOLoss(ClipPPOLoss):
                 "ClipPPOLoss.forward did not call loss_critic; this TorchRL version is "
                 "not supported by HierarchicalPPOLoss"
             )
-        worker, manager = split
-        td_out.set(LOSS_WORKER_CRITIC, self._reduce_like_torchrl(worker, tensordict))
-        if manager is not None:
-            td_out.set(LOSS_MANAGER_CRITIC, self._reduce_like_torchrl(manager, tensordict))
+        td_out.set(LOSS_WORKER_CRITIC, self._reduce_like_torchrl(split.worker, tensordict))
+        td_out.set(EXPLAINED_VARIANCE_WORKER, split.worker_explained_variance)
+        if split.manager is not None:
+            td_out.set(LOSS_MANAGER_CRITIC, self._reduce_like_torchrl(split.manager, tensordict))
+            td_out.set(EXPLAINED_VARIANCE_MANAGER, split.manager_explained_variance)
         return td_out
 
     def loss_critic(self, tensordict: TensorDictBase) -> tuple[Tensor, None, Tensor]:
@@ -260,10 +294,10 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             terms, no value-clip fraction, and the explained variance of ``V_hat``.
         """
         terms = self._critic_terms(tensordict)
+        manager = terms.manager.detach() if terms.manager is not None else None
+        self._critic_split = terms._replace(worker=terms.worker.detach(), manager=manager)
         if terms.manager is None:
-            self._critic_split = (terms.worker.detach(), None)
             return terms.worker, None, terms.explained_variance
-        self._critic_split = (terms.worker.detach(), terms.manager.detach())
         return terms.worker + terms.manager, None, terms.explained_variance
 
     def _reduce_like_torchrl(self, loss: Tensor, tensordict: TensorDictBase) -> Tensor:
@@ -336,10 +370,13 @@ class HierarchicalPPOLoss(ClipPPOLoss):
                 fused, _ = estimator.fused_value().fuse(tensordict, worker_value, manager_value)
             else:
                 fused = worker_value
-            explained = 1.0 - (target - fused).var(correction=0) / (
-                target.var(correction=0) + torch.finfo(target.dtype).eps
-            )
-        return _CriticTerms(worker, manager, explained)
+        return _CriticTerms(
+            worker,
+            manager,
+            explained_variance(target, fused),
+            explained_variance(target, worker_value),
+            explained_variance(target, manager_value) if manager_value is not None else None,
+        )
 
 
 def make_ppo_loss(

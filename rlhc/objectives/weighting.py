@@ -44,6 +44,8 @@ DIAGNOSTICS: tuple[str, ...] = (
     "kl_approx",
     "clip_fraction",
     "explained_variance",
+    "explained_variance_worker",
+    "explained_variance_manager",
 )
 
 

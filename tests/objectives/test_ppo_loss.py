@@ -25,6 +25,8 @@ DIAGNOSTICS = (
     "kl_approx",
     "clip_fraction",
     "explained_variance",
+    "explained_variance_worker",
+    "explained_variance_manager",
 )
 
 
@@ -68,6 +70,10 @@ def test_critic_loss_is_the_sum_of_both_terms(networks: Callable) -> None:
     fused = torch.maximum(worker, manager)
     explained = 1 - (target - fused).var(correction=0) / target.var(correction=0)
     assert_close(out["explained_variance"], explained)
+    for key, value in (("worker", worker), ("manager", manager)):
+        by_hand = 1 - (target - value).var(correction=0) / target.var(correction=0)
+        assert_close(out[f"explained_variance_{key}"], by_hand)
+    assert not torch.equal(out["explained_variance_worker"], out["explained_variance_manager"])
     # ClipPPOLoss's own hook gives the same (unreduced) sum.
     unreduced, _, hook_explained = loss.loss_critic(data)
     assert_close(unreduced.mean(), out["loss_critic"])
@@ -316,8 +322,12 @@ def test_ppo_neither_runs_nor_trains_the_manager_unless_asked(networks: Callable
         out = loss(data.clone())
         sum(out[key] for key in LOSS_KEYS).backward()
         grads.append({name: p.grad for name, p in loss.named_parameters()})
-    assert "loss_manager_critic" not in ppo(data.clone())
-    assert "loss_manager_critic" in kept(data.clone())
+    for key in ("loss_manager_critic", "explained_variance_manager"):
+        assert key not in ppo(data.clone())
+        assert key in kept(data.clone())
+    # PPO's value is the worker's: the fused explained variance is the worker's.
+    out = ppo(data.clone())
+    assert_close(out["explained_variance"], out["explained_variance_worker"])
     manager = [name for name in grads[0] if "critic_network_params.module.1." in name]
     assert manager and all(grads[0][name] is None for name in manager)
     assert all(grads[1][name] is not None for name in manager)
