@@ -122,6 +122,14 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         # beta and epsilon decay over 10 M (the paper's runs still gain when their lr
         # reaches 0 at 3.6 M), a checkpoint every 250 K.
         "long": ("algo.max_steps=10000000", "checkpoint_freq=250000"),
+        # long with probe_entropy's bonus (0.02, decaying to the same floor): long's seed 1
+        # stays under one hit per point for 6 M court-decisions, its move scale near the
+        # ball down to 0.02 and 36 % of its moves toward the ball (seed 0: 57 %).
+        "long_entropy": (
+            "algo.entropy_coef=0.02",
+            "algo.max_steps=10000000",
+            "checkpoint_freq=250000",
+        ),
         # probe_gaussian_lr_epochs with the paper's decay over its 10 M (that probe peaks
         # at 10 hits per point near 7 M and falls back at a constant lr, its scale growing).
         "long_gaussian": (
