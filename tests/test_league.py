@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
@@ -105,11 +106,15 @@ def test_opponent_experiences_carry_no_gradient(env: str, tmp_path: Path) -> Non
         assert torch.equal(learner, expected)
         assert (~learner).any() and learner.any()
 
+    diagnostics: list[dict[str, float]] = []
+
     def gradients(data: object) -> list[torch.Tensor]:
         # TanhNormal's entropy is a Monte Carlo estimate: the same draws each time.
         torch.manual_seed(0)
         trainer.optimizer.zero_grad(set_to_none=True)
-        trainer.minibatch_loss(data.clone()).backward()  # type: ignore[attr-defined]
+        stats: dict[str, list[torch.Tensor]] = defaultdict(list)
+        trainer.minibatch_loss(data.clone(), stats).backward()  # type: ignore[attr-defined]
+        diagnostics.append({name: values[0].item() for name, values in stats.items()})
         return [p.grad.clone() for p in trainer.parameters if p.grad is not None]
 
     before = gradients(flat)
@@ -127,6 +132,15 @@ def test_opponent_experiences_carry_no_gradient(env: str, tmp_path: Path) -> Non
     assert len(before) == len(after) > 0
     for grad_before, grad_after in zip(before, after, strict=True):
         torch.testing.assert_close(grad_before, grad_after)
+    # ... nor the learner-weighted diagnostics: the loss terms and the explained
+    # variances. (kl_approx, clip_fraction and entropy are TorchRL's means over every
+    # experience of the minibatch, the opponents' included.)
+    weighted = [name for name in diagnostics[0] if "/loss_" in name or "/explained_" in name]
+    for group in trainer.groups:
+        for key in ("loss_objective", "explained_variance", "explained_variance_worker"):
+            assert f"{group}/{key}" in weighted
+    for name in weighted:
+        assert diagnostics[1][name] == pytest.approx(diagnostics[0][name], rel=1e-5, abs=1e-6)
     # Scrambling the learner's own experiences does change the gradient.
     scrambled = flat.clone()
     for group in trainer.groups:

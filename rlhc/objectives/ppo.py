@@ -43,11 +43,12 @@ class _CriticTerms(NamedTuple):
     manager_explained_variance: Tensor | None
 
 
-def explained_variance(target: Tensor, value: Tensor) -> Tensor:
+def explained_variance(target: Tensor, value: Tensor, weight: Tensor | None = None) -> Tensor:
     """``1 - Var(target - value) / Var(target)`` over every element (no gradient).
 
     1 for a perfect prediction (up to a constant offset), 0 for a constant, negative
-    for worse than a constant.
+    for worse than a constant. With ``weight`` (broadcastable to ``target``, 0 or 1 per
+    element) both variances are taken over the elements of weight 1 only.
 
     Examples:
         >>> target = torch.tensor([1.0, 2.0, 3.0])
@@ -57,9 +58,18 @@ def explained_variance(target: Tensor, value: Tensor) -> Tensor:
         -3.0
     """
     with torch.no_grad():
-        return 1.0 - (target - value).var(correction=0) / (
-            target.var(correction=0) + torch.finfo(target.dtype).eps
-        )
+        if weight is None:
+            residual, spread = (target - value).var(correction=0), target.var(correction=0)
+        else:
+            weight = weight.expand_as(target)
+            count = weight.sum().clamp_min(1.0)
+
+            def variance(x: Tensor) -> Tensor:
+                mean = (x * weight).sum() / count
+                return ((x - mean) ** 2 * weight).sum() / count
+
+            residual, spread = variance(target - value), variance(target)
+        return 1.0 - residual / (spread + torch.finfo(target.dtype).eps)
 
 
 #: Gamma and lambda of an estimator built without them (TorchRL's GAE defaults).
@@ -370,12 +380,17 @@ class HierarchicalPPOLoss(ClipPPOLoss):
                 fused, _ = estimator.fused_value().fuse(tensordict, worker_value, manager_value)
             else:
                 fused = worker_value
+        # League worlds: the variances over the learner's experiences only.
+        learner = tensordict.get(tk.learner, None)
+        weight = learner.reshape(target.shape).to(target.dtype) if learner is not None else None
         return _CriticTerms(
             worker,
             manager,
-            explained_variance(target, fused),
-            explained_variance(target, worker_value),
-            explained_variance(target, manager_value) if manager_value is not None else None,
+            explained_variance(target, fused, weight),
+            explained_variance(target, worker_value, weight),
+            explained_variance(target, manager_value, weight)
+            if manager_value is not None
+            else None,
         )
 
 

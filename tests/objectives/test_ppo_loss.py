@@ -17,6 +17,7 @@ from rlhc.objectives import (
     HierarchicalValueEstimator,
     make_ppo_loss,
 )
+from rlhc.objectives.ppo import explained_variance
 
 DIAGNOSTICS = (
     "loss_worker_critic",
@@ -334,3 +335,18 @@ def test_ppo_neither_runs_nor_trains_the_manager_unless_asked(networks: Callable
     for name, grad in grads[0].items():
         if name not in manager:
             assert_close(grad, grads[1][name], rtol=0, atol=1e-6, msg=name)
+
+
+def test_weighted_explained_variance_is_that_of_the_weighted_elements() -> None:
+    gen = torch.Generator().manual_seed(0)
+    target, value = torch.randn(2, 50, 4, 1, generator=gen).unbind(0)
+    weight = (torch.rand(50, 4, 1, generator=gen) < 0.5).float()
+    kept = weight.bool()
+    assert_close(
+        explained_variance(target, value, weight),
+        explained_variance(target[kept], value[kept]),
+    )
+    assert_close(
+        explained_variance(target, value, torch.ones_like(weight)),
+        explained_variance(target, value),
+    )
