@@ -94,6 +94,27 @@ def test_periodic_evaluation_logs_a_win_rate(tmp_path: Path) -> None:
     assert rows[1]["eval/win_rate"] + rows[1]["eval/draw_rate"] <= 1.0
 
 
+def test_periodic_play_measurement_logs_play_and_leaves_training_alone(tmp_path: Path) -> None:
+    common = ("env=tennis", "algo.max_steps=512", "seed=7")
+    Trainer(load(*common), tmp_path / "plain").train()
+    # Measured after the first update of two: the second one must not notice.
+    played = ("play_freq=256", "play_worlds=2", "play_decisions=40")
+    Trainer(load(*common, *played), tmp_path / "played").train()
+    plain, rows = read_metrics(tmp_path / "plain"), read_metrics(tmp_path / "played")
+    assert [row["step"] for row in rows] == [256.0, 512.0]
+    last = rows[0]
+    assert last["play/hits_per_point"] >= 0.0 and 0.0 <= last["play/toward_ball"] <= 1.0
+    for dimension in ("move", "jump", "tilt"):
+        assert last[f"play/sigma_far/{dimension}"] > 0.0
+        assert 0.0 <= last[f"play/saturated/{dimension}"] <= 1.0
+
+    # Training itself is the same, row for row (the measurement restores the generators).
+    def training(row: dict[str, float]) -> dict[str, float]:
+        return {k: v for k, v in row.items() if k not in TIMING and not k.startswith("play/")}
+
+    assert [training(row) for row in rows] == [training(row) for row in plain]
+
+
 def test_lstm_is_refused_with_an_explanation(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="model=lstm is not supported"):
         Trainer(load("env=tennis", "model=lstm"), tmp_path)

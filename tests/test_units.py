@@ -240,9 +240,14 @@ def test_the_frame_based_presets_rebuild_the_old_updates(
 
 @pytest.mark.parametrize(
     ("override", "named"),
-    [("eval_freq=-5", "eval_freq=-5"), ("threads=-1", "threads=-1")],
+    [
+        ("eval_freq=-5", "eval_freq=-5"),
+        ("threads=-1", "threads=-1"),
+        ("play_freq=-1", "play_freq=-1"),
+        ("play_freq=100 play_worlds=0", "play_worlds=0"),
+    ],
 )
 def test_negative_periods_and_thread_counts_are_refused(override: str, named: str) -> None:
     with pytest.raises(ConfigError, match="allowed") as error:
-        validate(load("env=tennis", override))
+        validate(load("env=tennis", *override.split()))
     assert named in str(error.value)

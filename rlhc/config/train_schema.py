@@ -273,6 +273,15 @@ class TrainConfig:
         eval_freq: every this many world-decisions, play ``eval_matches`` matches against the
             scripted team and log the win rate (``0``: never).
         eval_matches: matches per periodic evaluation (half on each side).
+        play_freq: every this many world-decisions, measure how the live policy plays
+            against itself (:mod:`rlhc.evaluation.diagnostics`: tennis: hits over the
+            net per point sampled and with mode actions, the policy's scale near the
+            ball and elsewhere, saturated actions, moves toward the ball; soccer: goals,
+            shots, touches) on ``play_worlds`` fresh worlds for ``play_decisions``
+            decisions, and log it under ``play/`` (``0``: never). Training is untouched
+            (its random state is restored).
+        play_worlds: worlds of each periodic play measurement.
+        play_decisions: decisions per world of each periodic play measurement.
         parallel: how the processes of ``torchrun --nproc_per_node=N`` (N > 1) share a
             run (:mod:`rlhc.training.distributed`): ``data`` (each steps its share of the worlds,
             gradients all-reduced every minibatch: the same update as one process) or
@@ -294,6 +303,9 @@ class TrainConfig:
     threads: int = 1
     eval_freq: int = measured_in("world-decisions", 0)
     eval_matches: int = 20
+    play_freq: int = measured_in("world-decisions", 0)
+    play_worlds: int = 16
+    play_decisions: int = 500
     parallel: str = "data"
 
 

@@ -77,6 +77,7 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
             raise ConfigError(f"{name}={value}; allowed: an integer >= 1")
     non_negative = {
         "eval_freq": (cfg.eval_freq, "0 (off) or a number of world-decisions"),
+        "play_freq": (cfg.play_freq, "0 (off) or a number of world-decisions"),
         "threads": (cfg.threads, "0 (torch's default) or a thread count"),
     }
     for name, (value, allowed) in non_negative.items():
@@ -86,6 +87,13 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
         raise ConfigError(
             f"eval_matches={cfg.eval_matches}; allowed: an integer >= 2 (half on each side)"
         )
+    if cfg.play_freq:
+        for name, value in (
+            ("play_worlds", cfg.play_worlds),
+            ("play_decisions", cfg.play_decisions),
+        ):
+            if value < 1:
+                raise ConfigError(f"{name}={value}; allowed: an integer >= 1")
     if cfg.env.num_envs is not None and cfg.env.num_envs < 1:
         raise ConfigError(f"env.num_envs={cfg.env.num_envs}; allowed: null or an integer >= 1")
     if not 0.0 < cfg.algo.gamma <= 1.0 or not 0.0 <= cfg.algo.lmbda <= 1.0:

@@ -27,6 +27,7 @@ from tqdm.contrib.logging import logging_redirect_tqdm
 from rlhc.config.train_schema import TrainConfig
 from rlhc.envs import make_env
 from rlhc.envs.keys import DONE, EPISODE_REWARD, INFO, NEXT, STEP_COUNT, TERMINATED
+from rlhc.storage.checkpoint import rng_states, set_rng_states
 from rlhc.training.loggers import ProgressLines
 
 #: Every process's value, in rank order (``[value]`` for one process).
@@ -198,6 +199,49 @@ class ScriptedMatches:
             "eval/win_rate": float(result["win_rate"]),
             "eval/draw_rate": float(result["draw_rate"]),
         }
+
+
+#: Keys of a play measurement that echo its settings, not measure play.
+PLAY_SETTINGS = ("worlds", "decisions", "seed")
+
+
+def play_metrics(state: Mapping[str, Any], cfg: TrainConfig) -> dict[str, float]:
+    """The periodic play measurement (``play_freq``): the numbers of
+    :func:`rlhc.evaluation.diagnostics.diagnose` on ``state`` (the live training state),
+    flattened under ``play/`` (``play/hits_per_point``, ``play/sigma_near/move``, ...).
+
+    The measurement seeds the global generators (``cfg.seed + 2``); they are put back
+    afterwards, so that training continues as if nothing had been played.
+    """
+    from rlhc.evaluation.diagnostics import diagnose
+
+    states = rng_states()
+    try:
+        result = diagnose(
+            state, worlds=cfg.play_worlds, decisions=cfg.play_decisions, seed=cfg.seed + 2
+        )
+    finally:
+        set_rng_states(states)
+    return {f"play/{name}": value for name, value in numbers(result)}
+
+
+def numbers(tree: Mapping[str, Any], prefix: str = "") -> list[tuple[str, float]]:
+    """The numeric leaves of a nested mapping, named by their ``/``-joined path.
+
+    The measurement's own settings (``worlds``, ``decisions``, ``seed``) are left out.
+
+    Examples:
+        >>> numbers({"hits": 2, "sigma": {"move": 0.5}, "seed": 0, "team": "scripted"})
+        [('hits', 2.0), ('sigma/move', 0.5)]
+    """
+    found = []
+    for key, value in tree.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, Mapping):
+            found += numbers(value, f"{name}/")
+        elif isinstance(value, bool | int | float) and key not in PLAY_SETTINGS:
+            found.append((name, float(value)))
+    return found
 
 
 def postfix(metrics: Mapping[str, float]) -> dict[str, str]:

@@ -52,7 +52,7 @@ from rlhc.training.interrupt import StopSignals, TrainingInterrupted
 from rlhc.training.league import League, LeaguePolicy
 from rlhc.training.loggers import MetricLogger
 from rlhc.training.strategies import make_strategy
-from rlhc.training.summaries import ProgressReport, ScriptedMatches, SummaryWindow
+from rlhc.training.summaries import ProgressReport, ScriptedMatches, SummaryWindow, play_metrics
 from rlhc.training.training_state import (
     Counters,
     checkpoint_to_resume,
@@ -332,6 +332,12 @@ class Trainer:
             and self._crossed(previous, self.cfg.eval_freq)
         ):
             metrics.update(self.evaluate())
+        if (
+            self.strategy.main
+            and self.cfg.play_freq
+            and self._crossed(previous, self.cfg.play_freq)
+        ):
+            metrics.update(play_metrics(self.state(), self.cfg))
         if self.logger is not None:
             self.logger.log(self.frames, metrics)
         return metrics
