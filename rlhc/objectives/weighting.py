@@ -179,4 +179,43 @@ def learner_weighted_loss(
     diagnostics = {
         key: weighted_mean(out[key].detach().float(), weight) for key in DIAGNOSTICS if key in out
     }
+    if minibatch.get(keys.learner, None) is not None:
+        # TorchRL averages these over every experience, the opponents' included.
+        diagnostics.update(policy_diagnostics(loss, minibatch, weight))
     return WeightedLoss(total, diagnostics)  # type: ignore[arg-type]
+
+
+def policy_diagnostics(
+    loss: HierarchicalPPOLoss, minibatch: TensorDictBase, weight: Tensor
+) -> dict[str, Tensor]:
+    """``kl_approx``, ``clip_fraction`` and ``entropy`` of the current policy on a
+    minibatch, each averaged under ``weight``.
+
+    ``ClipPPOLoss`` reports these three as means over every experience whatever its
+    ``reduction``; in a league world half of them were chosen by an opponent's policy,
+    whose log-probabilities make the ratio meaningless. Recomputed here per experience
+    (one more forward of the actor, without gradient), as ``ClipPPOLoss`` computes them:
+    ``kl_approx = log pi_old(a) - log pi(a)``, clipped where the ratio leaves
+    ``[1 - eps, 1 + eps]``, the analytic entropy or else a one-sample estimate.
+
+    Args:
+        loss: the group's loss (its actor, keys and ``clip_epsilon``).
+        minibatch: a flat minibatch ``[B]`` of collected experiences.
+        weight: ``[B, n_g]``, as :func:`learner_weight` gives it.
+    """
+    keys = loss.tensor_keys
+    with torch.no_grad():
+        dist = loss.actor_network.get_dist(minibatch)
+        log_prob = dist.log_prob(minibatch[keys.action])
+        kl_approx = minibatch[keys.sample_log_prob] - log_prob
+        epsilon = loss.clip_epsilon
+        clipped = (kl_approx < -torch.log1p(epsilon)) | (kl_approx > -torch.log1p(-epsilon))
+        try:
+            entropy = dist.entropy()
+        except NotImplementedError:  # TanhNormal: TorchRL's one-sample estimate
+            entropy = -dist.log_prob(dist.sample())
+    return {
+        "kl_approx": weighted_mean(kl_approx, weight),
+        "clip_fraction": weighted_mean(clipped.float(), weight),
+        "entropy": weighted_mean(entropy, weight),
+    }

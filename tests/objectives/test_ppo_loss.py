@@ -18,6 +18,7 @@ from rlhc.objectives import (
     make_ppo_loss,
 )
 from rlhc.objectives.ppo import explained_variance
+from rlhc.objectives.weighting import learner_weight, policy_diagnostics
 
 DIAGNOSTICS = (
     "loss_worker_critic",
@@ -350,3 +351,39 @@ def test_weighted_explained_variance_is_that_of_the_weighted_elements() -> None:
         explained_variance(target, value, torch.ones_like(weight)),
         explained_variance(target, value),
     )
+
+
+@pytest.mark.parametrize("discrete", [None, 6])
+def test_policy_diagnostics_are_torchrls_where_every_experience_is_the_learners(
+    discrete: int | None,
+) -> None:
+    # On data the learner chose throughout, the recomputed KL and clip fraction are
+    # ClipPPOLoss's own (and the analytic entropy too); the policy has moved since the
+    # data was collected, so neither is trivially 0.
+    specs = make_specs(discrete=discrete)
+    cfg = NetworkConfig(hidden_size=16)
+    torch.manual_seed(0)
+    loss = make_ppo_loss(
+        actor=make_actor(specs, GROUP, cfg),
+        worker_critic=make_worker_critic(specs, GROUP, cfg),
+        manager_critic=make_manager_critic(specs, GROUP, cfg),
+        group=GROUP,
+        reduction="none",
+        normalize_advantage=False,
+        clip_epsilon=0.05,
+    )
+    data = collected(loss)
+    with torch.no_grad():
+        loss.value_estimator(data)
+        for parameter in loss.actor_network.parameters():
+            parameter.add_(0.05 * torch.randn_like(parameter))
+    flat = data.reshape(-1)
+    flat[GROUP, "learner"] = torch.ones(*flat[GROUP, "advantage"].shape, dtype=torch.bool)
+    weight = learner_weight(flat, (GROUP, "learner"), flat[GROUP, "advantage"])
+    ours = policy_diagnostics(loss, flat, weight)
+    theirs = loss(flat)
+    assert theirs["kl_approx"].abs() > 1e-3 and 0 < theirs["clip_fraction"] < 1
+    assert_close(ours["kl_approx"], theirs["kl_approx"])
+    assert_close(ours["clip_fraction"], theirs["clip_fraction"])
+    if discrete is not None:
+        assert_close(ours["entropy"], theirs["entropy"])
