@@ -115,6 +115,20 @@ def test_periodic_play_measurement_logs_play_and_leaves_training_alone(tmp_path:
     assert [training(row) for row in rows] == [training(row) for row in plain]
 
 
+def test_a_period_crossed_between_rows_is_measured_at_the_next_row(tmp_path: Path) -> None:
+    # Updates of 64 frames, a row every 128: play_freq=192 is crossed at 192 (no row
+    # there) and at 384; each measurement lands in the first row after its crossing.
+    cfg = load(
+        "env=tennis", "algo.max_steps=512", "logger.summary_freq=128",
+        "play_freq=192", "play_worlds=2", "play_decisions=20",
+    )  # fmt: skip
+    trainer = Trainer(cfg, tmp_path)
+    assert trainer.layout.frames_per_batch == 64
+    trainer.train()
+    rows = read_metrics(tmp_path)
+    assert [row["step"] for row in rows if "play/hits_per_point" in row] == [256.0, 384.0]
+
+
 def test_lstm_is_refused_with_an_explanation(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="model=lstm is not supported"):
         Trainer(load("env=tennis", "model=lstm"), tmp_path)

@@ -181,6 +181,7 @@ class Trainer:
         )
         window = SummaryWindow()
         last_metrics: dict[str, float] = {}
+        summarised_at = self.frames  # frames at the last row of metrics.csv
         saved: tuple[int, Path] | None = None
         stop, stopping = StopSignals(), False
         start = time.perf_counter() - self.wall_time
@@ -215,7 +216,8 @@ class Trainer:
                 window.add("train_frames_per_s", frames / (collect_time + update_time))
                 # Log, checkpoint.
                 if self._crossed(previous, cfg.logger.summary_freq) or self._finished():
-                    last_metrics = self._summarise(window, previous)
+                    last_metrics = self._summarise(window, summarised_at)
+                    summarised_at = self.frames
                     report.summarised(last_metrics)
                 if self._crossed(previous, cfg.checkpoint_freq) or self._finished():
                     saved = (self.frames, self.save())
@@ -309,8 +311,10 @@ class Trainer:
         return total
 
     # --- metrics --------------------------------------------------------------------
-    def _summarise(self, window: SummaryWindow, previous: int) -> dict[str, float]:
-        """One row of ``metrics.csv``: the window's numbers, the counters, an evaluation."""
+    def _summarise(self, window: SummaryWindow, summarised_at: int) -> dict[str, float]:
+        """One row of ``metrics.csv``: the window's numbers, the counters, and the matches
+        and play measurement whose period (``eval_freq``, ``play_freq``) was crossed since
+        the last row (at ``summarised_at`` frames)."""
         metrics = window.metrics(self.strategy.gather)
         window.clear()
         if self.league is not None:
@@ -329,13 +333,13 @@ class Trainer:
         if (
             self.strategy.main
             and self.cfg.eval_freq
-            and self._crossed(previous, self.cfg.eval_freq)
+            and self._crossed(summarised_at, self.cfg.eval_freq)
         ):
             metrics.update(self.evaluate())
         if (
             self.strategy.main
             and self.cfg.play_freq
-            and self._crossed(previous, self.cfg.play_freq)
+            and self._crossed(summarised_at, self.cfg.play_freq)
         ):
             metrics.update(play_metrics(self.state(), self.cfg))
         if self.logger is not None:
