@@ -144,3 +144,21 @@ def test_the_learning_figure_clips_each_band_to_the_values_its_metric_can_take(
     np.testing.assert_array_equal(length.low, np.zeros(5))
     assert np.all(length.high > 410.0)
     assert np.all(reward.low < -1.0) and np.all(reward.high > 1.0)
+
+
+def test_play_panels_are_drawn_where_a_run_measured_play(tmp_path: Path) -> None:
+    steps = np.arange(1, 5) * 100.0
+    plain = Run(tmp_path / "a", {"step": steps, "episode_length": np.ones(4)})
+    played = Run(
+        tmp_path / "b",
+        {"step": steps, "play/toward_ball": np.array([np.nan, 0.4, np.nan, 0.5])},
+    )
+    assert not any(name.startswith("play/") for name in panels_of("tennis", {"ppo": [plain]}))
+    panels = panels_of("tennis", {"ppo": [plain], "twin": [played]})
+    assert [name for name in panels if name.startswith("play/")] == ["play/toward_ball"]
+    assert bounds_of("tennis")["play/toward_ball"] == (0.0, 1.0)
+    out = figures.draw_learning_curves(
+        {"ppo": [plain], "twin": [played]}, panels, "tennis", tmp_path / "c.png", 0.8,
+        bounds_of("tennis"),
+    )  # fmt: skip
+    assert out.stat().st_size > 0

@@ -37,6 +37,18 @@ CURVES: dict[str, dict[str, str]] = {
         "episode_length": "episode length (decisions)",
     },
 }
+#: Periodic play measurements (``play_freq``) drawn where a run logged them.
+PLAY_PANELS: dict[str, dict[str, str]] = {
+    "tennis": {
+        "play/hits_per_point_mode": "hits per point, mode actions (play/)",
+        "play/sigma_near/move": "move scale near the ball (play/)",
+        "play/toward_ball": "share of moves toward the ball (play/)",
+    },
+    "soccer": {
+        "play/self_play/trained/goals_per_1000": "goals per 1,000 decisions, self-play (play/)",
+        "play/vs_scripted/trained/goals_per_1000": "goals per 1,000 vs scripted (play/)",
+    },
+}
 SMOOTHING = 0.8
 
 
@@ -84,11 +96,13 @@ def read_curves(run_dirs: Mapping[str, Sequence[Path]]) -> dict[str, list[Run]]:
 
 
 def panels_of(env: str, runs: Mapping[str, Sequence[Run]]) -> dict[str, str]:
-    """The panels of a game (:data:`CURVES`); soccer adds every logged ``*/cumulative_reward``."""
+    """The panels of a game (:data:`CURVES`); soccer adds every logged ``*/cumulative_reward``,
+    and both games the :data:`PLAY_PANELS` some run logged (``play_freq``)."""
     panels = dict(CURVES[env])
+    logged = sorted({name for group in runs.values() for r in group for name in r.columns})
     if env == "soccer":
-        logged = sorted({name for group in runs.values() for r in group for name in r.columns})
         panels.update({name: name for name in logged if name.endswith("/cumulative_reward")})
+    panels.update({name: label for name, label in PLAY_PANELS[env].items() if name in logged})
     return panels
 
 
@@ -101,7 +115,9 @@ def bounds_of(env: str) -> dict[str, tuple[float, float]]:
         (0.0, 1.0)
     """
     play = PLAY_METRIC[env]
-    return {"episode_length": (0.0, math.inf), play.column: play.bounds}
+    counts = dict.fromkeys(PLAY_PANELS[env], (0.0, math.inf))
+    return {**counts, "play/toward_ball": (0.0, 1.0), "episode_length": (0.0, math.inf),
+            play.column: play.bounds}  # fmt: skip
 
 
 def plot_curves(
