@@ -39,7 +39,11 @@ RESULTS = Path(__file__).resolve().parent / "results" / "compile_update.json"
 def one_batch(trainer: Trainer) -> TensorDictBase:
     """One collected batch with its advantages, flattened to ``[frames]``."""
     batches = trainer.strategy.batches(
-        trainer.env, trainer.collection_policy, trainer.layout, trainer.layout.frames_per_batch
+        trainer.env,
+        trainer.collection_policy,
+        trainer.layout,
+        trainer.layout.frames_per_batch,
+        trainer.device,
     )
     batch = next(iter(batches))
     batches.close()

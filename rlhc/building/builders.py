@@ -165,10 +165,12 @@ def agents_per_world(cfg: TrainConfig) -> int:
 
 
 def make_training_env(cfg: TrainConfig, num_envs: int, seed: int) -> TransformedEnv:
-    """The batched env with episode-return tracking and, optionally, observation norm."""
-    base = make_env(
-        cfg.env.name, num_envs=num_envs, seed=seed, device=cfg.device, **cfg.env.game_options()
-    )
+    """The batched env with episode-return tracking and, optionally, observation norm.
+
+    The games run on CPU whatever ``cfg.device`` is: the collector moves their tensors
+    to the networks' device and back.
+    """
+    base = make_env(cfg.env.name, num_envs=num_envs, seed=seed, **cfg.env.game_options())
     return with_training_transforms(cfg, base)
 
 
@@ -259,7 +261,7 @@ def check_shared_trunk(cfg: TrainConfig, env: EnvBase) -> None:
 def make_agents(
     cfg: TrainConfig, env: EnvBase, *, learner_weighted: bool = False
 ) -> tuple[dict[str, torch.nn.Module], dict[str, HierarchicalPPOLoss]]:
-    """One actor and one PPO loss (owning both critics) per group.
+    """One actor and one PPO loss (owning both critics) per group, on ``cfg.device``.
 
     With ``model.shared_trunk`` the actor and the worker critic are the two operators of
     one :func:`~rlhc.modules.make_actor_value` (the same trunk parameters).
@@ -281,19 +283,22 @@ def make_agents(
     actors: dict[str, torch.nn.Module] = {}
     losses: dict[str, HierarchicalPPOLoss] = {}
     for group in group_names(env):
+        # On the device before the loss is built: the loss and the collection policy
+        # then hold the same parameters (a loss moved afterwards would hold copies).
         if net.shared_trunk:
-            shared = make_actor_value(env, group, net)
+            shared = make_actor_value(env, group, net).to(cfg.device)
             actor, worker_critic = shared.get_policy_operator(), shared.get_value_operator()
         else:
-            actor = make_actor(env, group, net)
-            worker_critic = make_worker_critic(env, group, net)
+            actor = make_actor(env, group, net).to(cfg.device)
+            worker_critic = make_worker_critic(env, group, net).to(cfg.device)
+        manager_critic = make_manager_critic(
+            env, group, net, manager_view=cfg.critic.manager_view
+        ).to(cfg.device)
         actors[group] = actor
         losses[group] = make_ppo_loss(
             actor=actor,
             worker_critic=worker_critic,
-            manager_critic=make_manager_critic(
-                env, group, net, manager_view=cfg.critic.manager_view
-            ),
+            manager_critic=manager_critic,
             group=group,
             gamma=cfg.algo.gamma,
             lmbda=cfg.algo.lmbda,
@@ -308,5 +313,5 @@ def make_agents(
             manager_diagnostics=cfg.critic.manager_diagnostics,
             # Collected batches are trajectories: the critics run once per batch.
             shifted=True,
-        )
+        ).to(cfg.device)
     return actors, losses

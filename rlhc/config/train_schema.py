@@ -268,7 +268,8 @@ class TrainConfig:
             directory (``hydra.run.dir``; a multirun job's ``hydra.sweep.dir`` /
             ``hydra.sweep.subdir``) if it holds a checkpoint, else start fresh (as every
             study of ``conf/study/`` does; a directory named ``auto``: ``./auto``).
-        device: torch device.
+        device: where the networks, losses and update run: ``cpu``, ``cuda`` or
+            ``cuda:<index>`` (one process); the games run on CPU (README "On a GPU").
         threads: torch intra-op threads (``0``: leave torch's default).
         eval_freq: every this many world-decisions, play ``eval_matches`` matches against the
             scripted team and log the win rate (``0``: never).

@@ -129,6 +129,7 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
     if problems:
         raise ConfigError("; ".join(problems))
     check_logger(cfg.logger)
+    check_device(cfg.device, processes)
     check_parallel(cfg.parallel, processes, cfg.device, cfg.league.active)
     interval = cfg.env.decision_interval
     if interval is not None and interval < 1:
@@ -182,6 +183,52 @@ def league_problems(cfg: LeagueConfig) -> list[str]:
     if cfg.sampling not in SAMPLING:
         problems.append(f"league.sampling={cfg.sampling!r}; allowed: {', '.join(SAMPLING)}")
     return problems
+
+
+#: Where the networks and the update may run (``device``); the games run on CPU.
+DEVICE_TYPES = ("cpu", "cuda")
+
+
+def check_device(device: str, processes: int = 1) -> None:
+    """Refuse a ``device`` that this machine cannot train on.
+
+    Raises:
+        ConfigError: not a torch device of :data:`DEVICE_TYPES`, a CUDA device that
+            torch does not see, or a CUDA device with several processes.
+
+    Examples:
+        >>> check_device("cpu")
+        >>> check_device("gpu")
+        Traceback (most recent call last):
+        ...
+        rlhc.errors.ConfigError: device='gpu'; allowed: cpu, cuda or cuda:<index>
+    """
+    allowed = "allowed: cpu, cuda or cuda:<index>"
+    try:
+        parsed = torch.device(device)
+    except (RuntimeError, TypeError):
+        raise ConfigError(f"device={device!r}; {allowed}") from None
+    if parsed.type not in DEVICE_TYPES:
+        raise ConfigError(f"device={device!r}; {allowed}")
+    if parsed.type != "cuda":
+        return
+    count = torch.cuda.device_count() if torch.cuda.is_available() else 0
+    if count == 0:
+        raise ConfigError(
+            f"device={device!r}, but torch sees no CUDA device here "
+            f"(torch {torch.__version__}, built with CUDA {torch.version.cuda}); allowed: cpu"
+        )
+    if parsed.index is not None and parsed.index >= count:
+        raise ConfigError(
+            f"device={device!r}; allowed: cpu, cuda or cuda:0 to cuda:{count - 1} "
+            f"({count} CUDA devices here)"
+        )
+    if processes > 1:
+        raise ConfigError(
+            f"device={device!r} with {processes} processes: the collective buffers of "
+            "rlhc.training.distributed live on CPU; allowed: one process on a GPU, or "
+            "device=cpu with torchrun"
+        )
 
 
 def backend(device: str) -> str:

@@ -34,7 +34,7 @@ def cut_trajectories(batch: TensorDictBase, groups: Sequence[str], horizon: int)
     steps = batch.shape[-1]
     if steps <= horizon:
         return
-    cut = torch.zeros(steps, dtype=torch.bool)
+    cut = torch.zeros(steps, dtype=torch.bool, device=batch.device)
     cut[horizon - 1 :: horizon] = True
     for group in groups:
         done = batch[NEXT, group, DONE]

@@ -72,7 +72,7 @@ def learner_weight(data: TensorDictBase, learner_key: NestedKey, like: Tensor) -
     """
     learner = data.get(learner_key, None)
     if learner is None:
-        return torch.ones(like.shape[: data.ndim + 1])
+        return torch.ones(like.shape[: data.ndim + 1], device=like.device)
     return learner.reshape(*learner.shape[: data.ndim + 1]).float()
 
 

@@ -221,9 +221,9 @@ def episode_results(batch: TensorDictBase) -> tuple[np.ndarray, np.ndarray]:
         a draw (no one scored), 0 for a loss.
     """
     done = batch[NEXT, DONE].squeeze(-1)
-    opponent = batch[OPPONENT].squeeze(-1)[done].numpy()
-    learner_team = batch[LEARNER_TEAM].squeeze(-1)[done].numpy()
-    scoring = batch[NEXT, SCORING_TEAM].squeeze(-1)[done].numpy()
+    opponent = batch[OPPONENT].squeeze(-1)[done].cpu().numpy()
+    learner_team = batch[LEARNER_TEAM].squeeze(-1)[done].cpu().numpy()
+    scoring = batch[NEXT, SCORING_TEAM].squeeze(-1)[done].cpu().numpy()
     scores = np.where(scoring < 0, 0.5, (scoring == learner_team).astype(float))
     return opponent, scores
 
@@ -282,8 +282,9 @@ class LeaguePolicy(TensorDictModuleBase):
         league.draw(np.flatnonzero(starting & (league.kinds == snapshot_kind)))
         tensordict = self.learner(tensordict)
         n = len(league.opponent)
-        opponent = torch.as_tensor(league.opponent, dtype=torch.int64)
-        learner_team = torch.as_tensor(league.learner_team, dtype=torch.int64)
+        device = tensordict.device
+        opponent = torch.as_tensor(league.opponent, dtype=torch.int64, device=device)
+        learner_team = torch.as_tensor(league.learner_team, dtype=torch.int64, device=device)
         actions = self._opponent_actions(tensordict, opponent)
         for group in self.groups:
             team = tensordict[group, TEAM]  # [N, n_g, 1]
@@ -317,7 +318,8 @@ class LeaguePolicy(TensorDictModuleBase):
                     actions = self._snapshot_actions(tensordict, opponent_id)
                 worlds = opponent == opponent_id
                 for group, action in actions.items():
-                    merged[group][worlds] = action[worlds].to(merged[group].dtype)
+                    # The built-in teams act on the game's device (CPU).
+                    merged[group][worlds] = action.to(merged[group])[worlds]
         return merged
 
     def _raw(self, tensordict: TensorDictBase) -> TensorDictBase:

@@ -124,16 +124,22 @@ class SingleProcess:
         policy: TensorDictModuleBase,
         layout: Layout,
         frames: int,
+        device: torch.device,
     ) -> Generator[TensorDictBase, None, None]:
         """The batches to train on until ``frames`` more world-decisions (of every process).
 
-        Each is this process's ``[worlds, decisions]`` share of an update; the collector
-        is shut down when the iterator ends or is closed.
+        Each is this process's ``[worlds, decisions]`` share of an update, on ``device``
+        (the policy's, where the update runs; the env steps on its own device, the
+        collector moves the tensors between them); the collector is shut down when the
+        iterator ends or is closed.
         """
         local = layout.frames_per_batch // self.shards
         collector = Collector(
             env,
             policy,
+            env_device=env.device,
+            policy_device=device,
+            storing_device=device,
             frames_per_batch=local,
             total_frames=math.ceil(frames / layout.frames_per_batch) * local,
             # The policy is stateless (no recurrent state to initialise).
@@ -258,7 +264,9 @@ class Pipeline(SingleProcess):
         policy: TensorDictModuleBase,
         layout: Layout,
         frames: int,
+        device: torch.device,
     ) -> Generator[TensorDictBase, None, None]:
+        # Several processes train on CPU (rlhc.config.validation.check_device).
         for batch, extras in remote_batches():
             # The collector's normaliser statistics, for the update and the checkpoints.
             self.extras = extras

@@ -192,7 +192,8 @@ class ScriptedMatches:
                 seed=self.cfg.seed + 1,
                 **self.cfg.env.game_options(),
             )
-        copies = {g: copy.deepcopy(actor).eval() for g, actor in actors.items()}
+        # On CPU, with the games (the actors may train on another device).
+        copies = {g: copy.deepcopy(actor).cpu().eval() for g, actor in actors.items()}
         policy = RestoredPolicy(copies, *normaliser_statistics(transform, copies))
         result = evaluate_against(policy, "scripted", self.env, self.cfg.eval_matches)
         return {

@@ -100,6 +100,8 @@ class Trainer:
         validate(cfg, processes.size)
         self.cfg = cfg
         self.run_dir = run_dir
+        # Networks, losses and the update; the games run on CPU (the collector moves data).
+        self.device = torch.device(cfg.device)
         self.strategy = make_strategy(
             processes, normalize_observations=cfg.algo.normalize_observations
         )
@@ -124,7 +126,10 @@ class Trainer:
             self.league = League(cfg.league, worlds, seed)
             net = network_config(cfg)
             self.collection_policy = LeaguePolicy(
-                self.policy, self.league, self.env, lambda g: make_actor(self.env, g, net)
+                self.policy,
+                self.league,
+                self.env,
+                lambda g: make_actor(self.env, g, net).to(self.device),
             )
         # fused: one kernel over all parameters (on CPU too), ~9% of a soccer update.
         self.parameters = trainable_parameters(self.losses)
@@ -191,7 +196,9 @@ class Trainer:
             if self.logger is not None:
                 context.callback(self.logger.close)
             context.enter_context(stop)
-            batches = strategy.batches(self.env, self.collection_policy, self.layout, remaining)
+            batches = strategy.batches(
+                self.env, self.collection_policy, self.layout, remaining, self.device
+            )
             for batch in context.enter_context(contextlib.closing(batches)):
                 # Collected: record its episodes, combine what the processes saw.
                 collect_time = time.perf_counter() - collect_start
@@ -296,7 +303,7 @@ class Trainer:
         chose (a league world) adds nothing. Diagnostics go to ``stats`` (this process's
         share only, data-parallel; the summary pools the processes).
         """
-        total = torch.zeros(())
+        total = torch.zeros((), device=self.device)
         for group, loss in self.losses.items():
             out = learner_weighted_loss(
                 loss,
