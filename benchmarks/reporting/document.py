@@ -19,6 +19,7 @@ import numpy as np
 
 from .aggregates import aggregates_section
 from .blocks import HAND_WRITTEN, block, blocks_of, body_lines
+from .efficiency import efficiency_section
 from .environment import machine, versions
 from .figures import draw_study_curves
 from .formatting import fmt_interval, fmt_reach, positive_interval, share_interval, table
@@ -261,6 +262,7 @@ def study_section(
         draw_study_curves(study.env, members, image)
     link = os.path.relpath(image, args.out.resolve().parent)
     section, comparisons = finals_section(study, runs, args.threshold_fraction)
+    efficiency, efficiency_verdicts = efficiency_section(study, runs)
     lines += [
         f"![{study.name} curves]({link})",
         "",
@@ -278,8 +280,10 @@ def study_section(
         *section,
         "",
         *play_and_speed(study, runs, args.threshold_fraction),
+        "",
+        *efficiency,
     ]
-    verdicts = [c.verdict() for c in comparisons if c.testable]
+    verdicts = [c.verdict() for c in comparisons if c.testable] + efficiency_verdicts
     waiting = sorted({f"`{c.rlhc}` vs `{c.ppo}`" for c in comparisons if not c.testable})
     if waiting:
         verdicts.append(
