@@ -26,6 +26,7 @@ from typing import Any
 import torch
 
 from benchmarks.reporting.summary import code_version
+from rlhc.envs.tennis.rules import POINT_ENDINGS
 from rlhc.evaluation.diagnostics.tennis import ACTION_NAMES, tennis_diagnostics
 from rlhc.storage.final_team import load_team
 
@@ -42,14 +43,21 @@ def row(name: str, result: dict[str, Any]) -> str:
         f"| {name} | {result['hits_per_point']:.2f} | {result['hits_per_point_mode']:.2f} "
         f"| {triple(result['sigma_near'])} | {triple(result['sigma_far'])} "
         f"| {triple(result['saturated'])} | {result['toward_ball']:.2f} "
-        f"| {result['toward_ball_mode']:.2f} |"
+        f"| {result['toward_ball_mode']:.2f} | {endings(result['ended'])} "
+        f"| {endings(result['ended_mode'])} |"
     )
+
+
+def endings(shares: dict[str, float]) -> str:
+    """Shares of points by how they ended, in :data:`POINT_ENDINGS`' order."""
+    return " / ".join(f"{shares[how]:.2f}" for how in POINT_ENDINGS)
 
 
 HEADER = (
     "| team | hits/point | hits/point (mode) | scale near ball (move/jump/tilt) "
-    "| scale elsewhere | saturated | toward ball | toward ball (mode) |\n"
-    "|---|---:|---:|---|---|---|---:|---:|"
+    "| scale elsewhere | saturated | toward ball | toward ball (mode) "
+    f"| points ended ({' / '.join(POINT_ENDINGS)}) | the same (mode) |\n"
+    "|---|---:|---:|---|---|---|---:|---:|---|---|"
 )
 
 

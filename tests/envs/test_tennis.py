@@ -10,6 +10,7 @@ from rlhc.envs.tennis import ScriptedTennisPolicy, TennisGame
 from rlhc.envs.tennis.game import STATE_SIZE
 from rlhc.envs.tennis.observations import LENGTH_SCALE, VELOCITY_SCALE
 from rlhc.envs.tennis.physics import NET_CONTACT
+from rlhc.envs.tennis.rules import POINT_ENDINGS
 
 MIRROR_RACKETS = [2, 3, 0, 1]
 
@@ -119,6 +120,8 @@ def test_missed_ball_penalises_the_team_of_that_half_and_ends_the_point(
     np.testing.assert_allclose(outcome.rewards["racket"][0], expected)
     assert outcome.scoring_team[0] == 1
     assert not outcome.truncated[0]
+    # Nobody touched it: the serve was missed.
+    assert [how for how in POINT_ENDINGS if outcome.info[f"ended_{how}"][0]] == ["serve_missed"]
 
 
 @pytest.mark.parametrize(
@@ -142,6 +145,22 @@ def test_ball_into_the_net_is_a_fault_of_the_team_that_had_it(
     # nearest to the ball).
     np.testing.assert_allclose(outcome.rewards["racket"][0], expected)
     assert outcome.scoring_team[0] == 1
+    assert [how for how in POINT_ENDINGS if outcome.info[f"ended_{how}"][0]] == ["net"]
+
+
+def test_every_ended_point_says_how_once_and_nothing_else_does() -> None:
+    game = TennisGame(num_worlds=64, seed=1)
+    rng = np.random.default_rng(1)
+    seen = dict.fromkeys(POINT_ENDINGS, 0)
+    for _ in range(300):
+        outcome = game.step({"racket": rng.uniform(-1, 1, (64, 4, 3))})
+        flags = np.stack([outcome.info[f"ended_{how}"] for how in POINT_ENDINGS], axis=-1)
+        np.testing.assert_array_equal(flags.sum(-1), outcome.terminated.astype(int))
+        for how, count in zip(POINT_ENDINGS, flags.sum(0), strict=True):
+            seen[how] += int(count)
+        game.reset(outcome.terminated | outcome.truncated)
+    # Random rackets miss serves, hit into the net, out, into the walls.
+    assert all(count > 0 for how, count in seen.items() if how != "missed"), seen
 
 
 def test_max_cycles_truncates_without_terminating() -> None:

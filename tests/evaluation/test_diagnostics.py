@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from rlhc.envs.tennis.rules import POINT_ENDINGS
 from rlhc.evaluation.diagnostics.__main__ import main
 from rlhc.evaluation.diagnostics.tennis import ACTION_NAMES, tennis_diagnostics
 from rlhc.storage.final_team import load_team
@@ -27,6 +28,10 @@ def test_an_untrained_team_is_measured_in_both_modes(checkpoints: dict[str, Path
         assert result["sigma_near"][name] == pytest.approx(result["sigma_far"][name], rel=0.2)
         assert 0 <= result["saturated"][name] <= 1
     assert 0 <= result["toward_ball"] <= 1 and 0 <= result["toward_ball_mode"] <= 1
+    for key in ("ended", "ended_mode"):
+        assert set(result[key]) == set(POINT_ENDINGS)
+        # every point ended one way, but those cut by the end of the measurement
+        assert 0.9 <= sum(result[key].values()) <= 1.0 + 1e-9
     # Seeded: the same numbers again.
     again = tennis_diagnostics(state, worlds=4, decisions=200, seed=3)
     assert json.dumps(again, sort_keys=True) == json.dumps(result, sort_keys=True)

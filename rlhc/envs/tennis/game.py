@@ -9,7 +9,7 @@
 | manager observation | 10 (14 with ``extended_obs``) |
 | rewards | ``+0.1`` to the racket whose hit crosses the net, ``-0.1`` to both rackets of the team that loses the point (``fault_penalty="team"``) — see :mod:`~rlhc.envs.tennis.rules` |
 | episode | one point (terminated), or ``max_cycles`` decisions (truncated; default 400 = 40 s) |
-| info | ``hits_over_net``: hits paid for crossing the net in the decision ``[N]``; ``hits_over_net_by_team``: the same per hitting team ``[N, 2]`` |
+| info | ``hits_over_net``: hits paid for crossing the net in the decision ``[N]``; ``hits_over_net_by_team``: the same per hitting team ``[N, 2]``; ``ended_<how>``: the point ended this way in the decision ``[N]``, one per :data:`~rlhc.envs.tennis.rules.POINT_ENDINGS` (``serve_missed``, ``missed``, ``out``, ``net``, ``wall``) |
 | state | 24: ball x, y, vx, vy + per racket x, y, vx, vy, angle (absolute frame, scaled) |
 
 The serve alternates between the teams of a court: the ball is tossed, with a
@@ -42,7 +42,7 @@ from rlhc.envs.tennis.observations import (
 )
 from rlhc.envs.tennis.physics import CourtGeometry, TennisPhysics
 from rlhc.envs.tennis.render import render_court
-from rlhc.envs.tennis.rules import FAULT_PENALTIES, Rally, judge
+from rlhc.envs.tennis.rules import FAULT_PENALTIES, POINT_ENDINGS, Rally, judge
 
 GROUP = "racket"
 AGENTS = ("racket_0", "racket_1", "racket_2", "racket_3")
@@ -82,6 +82,7 @@ class TennisGame(BatchedGame):
     published_info: ClassVar[dict[str, tuple[int, ...]]] = {
         "hits_over_net": (),
         "hits_over_net_by_team": (2,),
+        **{f"ended_{how}": () for how in POINT_ENDINGS},
     }
     metadata: ClassVar[dict[str, object]] = {"render_modes": ["rgb_array"], "render_fps": 25}
 
@@ -200,6 +201,10 @@ class TennisGame(BatchedGame):
             info={
                 "hits_over_net": verdict.over_net,
                 "hits_over_net_by_team": verdict.over_net_by_team,
+                **{
+                    f"ended_{how}": verdict.ended_by == code
+                    for code, how in enumerate(POINT_ENDINGS, start=1)
+                },
             },
         )
 

@@ -25,6 +25,11 @@ Edge cases, decided here once:
 * on one step a racket may collect several entries (e.g. a hit over the net and the
   ball then landing out), and its reward is their sum;
 * the first rally-ending contact of a step decides the point.
+
+How a point ended (:data:`POINT_ENDINGS`, :attr:`Verdict.ended_by`): ``serve_missed``, the
+tossed ball landed before anyone touched it; ``missed``, after a hit the ball landed
+inside a team's half (that team did not play it); ``out``, it landed outside the court;
+``net``, it hit the net; ``wall``, a wall or the ceiling.
 """
 
 from __future__ import annotations
@@ -33,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rlhc.envs.tennis.physics import GROUND_CONTACT, NO_CONTACT
+from rlhc.envs.tennis.physics import GROUND_CONTACT, NET_CONTACT, NO_CONTACT, WALL_CONTACT
 
 #: The reward table.
 HIT_OVER_NET_REWARD = 0.1
@@ -42,6 +47,8 @@ FAULT_REWARD = -0.1
 FAULT_PENALTIES = ("team", "nearest")
 #: Team of each racket.
 RACKET_TEAM = np.array([0, 0, 1, 1])
+#: How a point can end; :attr:`Verdict.ended_by` holds ``index + 1`` (``0``: not ended).
+POINT_ENDINGS = ("serve_missed", "missed", "out", "net", "wall")
 
 
 @dataclass
@@ -77,6 +84,8 @@ class Verdict:
         scoring_team: ``int64 [N]``: who won the point, ``-1`` if it goes on.
         over_net: ``bool [N]``: a hit was paid for crossing the net on this step.
         over_net_by_team: ``bool [N, 2]``: ``over_net`` by the hitter's team.
+        ended_by: ``int64 [N]``: how the point ended, ``1 + `` its index in
+            :data:`POINT_ENDINGS`; ``0`` if it goes on.
     """
 
     rewards: np.ndarray
@@ -84,6 +93,7 @@ class Verdict:
     scoring_team: np.ndarray
     over_net: np.ndarray
     over_net_by_team: np.ndarray
+    ended_by: np.ndarray
 
 
 def _nearest_of_team(team: np.ndarray, x: np.ndarray, racket_x: np.ndarray) -> np.ndarray:
@@ -180,4 +190,35 @@ def judge(
         scoring_team=scoring_team,
         over_net=over_net,
         over_net_by_team=over_net_by_team,
+        ended_by=_ending(ended, first_contact, inside, rally.last_hitter >= 0),
     )
+
+
+def _ending(
+    ended: np.ndarray, first_contact: np.ndarray, inside: np.ndarray, hit: np.ndarray
+) -> np.ndarray:
+    """:attr:`Verdict.ended_by` from the first contact, where it was and whether the ball
+    had been hit since the serve.
+
+    Examples:
+        >>> from rlhc.envs.tennis.physics import GROUND_CONTACT, NET_CONTACT
+        >>> codes = _ending(np.array([True, True, True, True, False]),
+        ...                 np.array([GROUND_CONTACT, GROUND_CONTACT, GROUND_CONTACT, NET_CONTACT, 0]),
+        ...                 np.array([True, True, False, True, True]),
+        ...                 np.array([False, True, True, True, True]))
+        >>> [POINT_ENDINGS[c - 1] if c else None for c in codes]
+        ['serve_missed', 'missed', 'out', 'net', None]
+    """
+    ground = first_contact == GROUND_CONTACT
+    name = np.select(
+        [
+            ground & inside & ~hit,
+            ground & inside & hit,
+            ground & ~inside,
+            first_contact == NET_CONTACT,
+            first_contact == WALL_CONTACT,
+        ],
+        [1, 2, 3, 4, 5],
+        default=0,
+    )
+    return np.where(ended, name, 0).astype(np.int64)

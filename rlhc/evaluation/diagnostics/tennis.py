@@ -12,6 +12,7 @@ as in matches, and reports:
 | ``saturated`` | share of sampled action components at their bound (``abs >= 0.99`` after the env's clip), per dimension |
 | ``toward_ball`` | share of decisions, with the ball in the racket's half and more than :data:`NEAR_BALL` away along the court, whose move action points at the ball (sampled) |
 | ``toward_ball_mode`` | the same for the mode actions |
+| ``ended`` / ``ended_mode`` | share of points that ended each way (:data:`~rlhc.envs.tennis.rules.POINT_ENDINGS`: the serve not touched, a ball not returned, out, net, wall), sampled / mode |
 
 The numbers are per decision of every racket, over ``worlds x decisions``
 racket-decisions per mode. ``python -m rlhc.evaluation.diagnostics <run dir or .pt>``
@@ -35,6 +36,7 @@ from tensordict.nn import InteractionType, set_interaction_type
 from rlhc.envs import make_env
 from rlhc.envs.keys import ACTION, INFO, NEXT, OBSERVATION, SCALE
 from rlhc.envs.tennis.observations import LENGTH_SCALE
+from rlhc.envs.tennis.rules import POINT_ENDINGS
 from rlhc.evaluation.policies import RestoredPolicy, observation_options, restore_policy
 
 #: Metres between racket and ball under which a racket is "near the ball".
@@ -93,6 +95,11 @@ def _hits_per_point(rollout: TensorDictBase) -> tuple[float, int]:
     return hits / max(points, 1), points
 
 
+def _endings(rollout: TensorDictBase) -> dict[str, float]:
+    points = max(int(rollout[NEXT, "done"].sum()), 1)
+    return {how: float(rollout[NEXT, INFO, f"ended_{how}"].sum()) / points for how in POINT_ENDINGS}
+
+
 def _toward_ball(rollout: TensorDictBase) -> float:
     _, along, own_half = _geometry(rollout)
     chasing = own_half & (along.abs() > NEAR_BALL)
@@ -134,6 +141,7 @@ def tennis_diagnostics(
             rollout = _play(restored, options, worlds, decisions, seed)
         result[f"hits_per_point{mode}"], result[f"points{mode}"] = _hits_per_point(rollout)
         result[f"toward_ball{mode}"] = _toward_ball(rollout)
+        result[f"ended{mode}"] = _endings(rollout)
         if mode:
             continue
         distance, _, _ = _geometry(rollout)
