@@ -122,6 +122,14 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         # beta and epsilon decay over 10 M (the paper's runs still gain when their lr
         # reaches 0 at 3.6 M), a checkpoint every 250 K.
         "long": ("algo.max_steps=10000000", "checkpoint_freq=250000"),
+        # long with the pre-tanh mean bounded (model.loc_bound): long seed 0 keeps a KL of
+        # 0.037 per update at lr 2e-8 at the end (TanhNormal's log-probability of a
+        # saturated mean, rebuilt through atanh) and collapses near 8 M.
+        "long_bounded": (
+            "model.action_dist=tanh_normal_bounded",
+            "algo.max_steps=10000000",
+            "checkpoint_freq=250000",
+        ),
         # long with probe_entropy's bonus (0.02, decaying to the same floor): long's seed 1
         # stays under one hit per point for 6 M court-decisions, its move scale near the
         # ball down to 0.02 and 36 % of its moves toward the ball (seed 0: 57 %).
