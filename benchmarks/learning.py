@@ -122,6 +122,18 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         # beta and epsilon decay over 10 M (the paper's runs still gain when their lr
         # reaches 0 at 3.6 M), a checkpoint every 250 K.
         "long": ("algo.max_steps=10000000", "checkpoint_freq=250000"),
+        # ML-Agents 0.5's Gaussian as that trainer has it: its scaling (pre_clip_range=3)
+        # and its entropy bonus per action dimension (it averages the entropy over the
+        # dimensions where IndependentNormal sums them: beta / 3 on tennis' three), at
+        # probe_gaussian_lr_epochs' lr 1e-3 and 6 epochs, constant.
+        "probe_mlagents_lr_epochs": (
+            *GAUSSIAN_POLICY,
+            "model.pre_clip_range=3.0",
+            *PROBE_SCHEDULE,
+            "algo.lr=1e-3",
+            "algo.epochs=6",
+            "algo.entropy_coef=0.0016667",
+        ),
         # long with the pre-tanh mean bounded (model.loc_bound): long seed 0 keeps a KL of
         # 0.037 per update at lr 2e-8 at the end (TanhNormal's log-probability of a
         # saturated mean, rebuilt through atanh) and collapses near 8 M.
