@@ -101,6 +101,13 @@ class PPOConfig:
         critic_coef: weight of each critic's value loss.
         max_grad_norm: global gradient-norm clip.
         normalize_advantage: standardise advantages per minibatch.
+        rescore_log_prob: before the first epoch of an update, replace the log-probability
+            stored with each action by the loss's own scoring of it under the same
+            weights (:mod:`rlhc.objectives.behaviour`): a ``TanhNormal`` stores that of
+            its pre-tanh sample and rescores the action through ``atanh``, which is off
+            where the pre-tanh value is large, so ratios start away from 1. Off by
+            default (the committed runs were trained without it); one process or
+            data-parallel only (a pipeline trains on batches of older weights).
         normalize_observations: running mean/std normalisation of both observations
             (the paper's ``normalize``).
     """
@@ -124,6 +131,7 @@ class PPOConfig:
     critic_coef: float = 0.5
     max_grad_norm: float = 0.5
     normalize_advantage: bool = True
+    rescore_log_prob: bool = False
     normalize_observations: bool = MISSING
 
 

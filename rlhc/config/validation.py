@@ -130,7 +130,9 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
         raise ConfigError("; ".join(problems))
     check_logger(cfg.logger)
     check_device(cfg.device, processes)
-    check_parallel(cfg.parallel, processes, cfg.device, cfg.league.active)
+    check_parallel(
+        cfg.parallel, processes, cfg.device, cfg.league.active, cfg.algo.rescore_log_prob
+    )
     interval = cfg.env.decision_interval
     if interval is not None and interval < 1:
         raise ConfigError(
@@ -236,12 +238,15 @@ def backend(device: str) -> str:
     return "nccl" if torch.device(device).type == "cuda" else "gloo"
 
 
-def check_parallel(mode: str, size: int, device: str, league_active: bool) -> None:
+def check_parallel(
+    mode: str, size: int, device: str, league_active: bool, rescore_log_prob: bool = False
+) -> None:
     """Refuse a way of sharing a run over ``size`` processes that cannot work.
 
     Raises:
-        ConfigError: an unknown ``parallel``, a pipeline of other than 2 processes or
-            with a league, or no collective backend for ``device`` in this torch build.
+        ConfigError: an unknown ``parallel``, a pipeline of other than 2 processes, with
+            a league or rescoring its batches, or no collective backend for ``device`` in
+            this torch build.
     """
     if mode not in PARALLEL_MODES:
         raise ConfigError(f"parallel={mode!r}; allowed: {', '.join(PARALLEL_MODES)}")
@@ -251,6 +256,13 @@ def check_parallel(mode: str, size: int, device: str, league_active: bool) -> No
         raise ConfigError(
             f"parallel=pipeline with {size} processes (torchrun --nproc_per_node); "
             "allowed: exactly 2 (one learner, one collector), or parallel=data for any number"
+        )
+    if mode == "pipeline" and rescore_log_prob:
+        raise ConfigError(
+            "parallel=pipeline with algo.rescore_log_prob=true: the learner trains on "
+            "batches collected with the weights of one update earlier, so its own "
+            "scoring is not the behaviour policy's; allowed: algo.rescore_log_prob=false, "
+            "or parallel=data"
         )
     if mode == "pipeline" and league_active:
         raise ConfigError(

@@ -44,7 +44,7 @@ from rlhc.config.train_schema import TrainConfig, schedules
 from rlhc.config.validation import validate
 from rlhc.envs.keys import MANAGER_SELECTED, MANAGER_VALUE, STATE_VALUE, WORKER_VALUE
 from rlhc.modules import make_actor
-from rlhc.objectives import cut_trajectories, learner_weighted_loss
+from rlhc.objectives import cut_trajectories, learner_weighted_loss, rescore_log_prob
 from rlhc.storage.checkpoint import CHECKPOINT_DIR, save_checkpoint, seed_everything
 from rlhc.storage.final_team import save_team
 from rlhc.training.distributed import Processes
@@ -261,6 +261,8 @@ class Trainer:
         cut_trajectories(batch, self.groups, layout.time_horizon)
         with torch.no_grad():
             for group, loss in self.losses.items():
+                if algo.rescore_log_prob:
+                    rescore_log_prob(loss, batch)
                 loss.value_estimator(batch)
                 for key in (STATE_VALUE, WORKER_VALUE, MANAGER_VALUE, MANAGER_SELECTED):
                     if (group, key) in batch.keys(include_nested=True):  # PPO: no manager
