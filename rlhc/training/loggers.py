@@ -263,7 +263,9 @@ class ProgressLines:
             if name.endswith("/cumulative_reward"):
                 parts.append(f"{name.split('/')[0]} reward {value:+.3f}")
         for name, value in metrics.items():
-            if name.startswith("events/") and not _PER_TEAM.search(name):
+            # The headline events only: per-team counts and how points ended (tennis'
+            # ended_<how>) stay in metrics.csv.
+            if name.startswith("events/") and not _PER_TEAM.search(name) and "/ended_" not in name:
                 event = name.removeprefix("events/").removesuffix("_per_episode")
                 parts.append(f"{event} {value:.2f}/episode")
         parts.append(f"elapsed {_duration(now - self.start)}, left ~{_duration(left)}")
