@@ -38,15 +38,7 @@ RESULTS = Path(__file__).resolve().parent / "results" / "compile_update.json"
 
 def one_batch(trainer: Trainer) -> TensorDictBase:
     """One collected batch with its advantages, flattened to ``[frames]``."""
-    batches = trainer.strategy.batches(
-        trainer.env,
-        trainer.collection_policy,
-        trainer.layout,
-        trainer.layout.frames_per_batch,
-        trainer.device,
-    )
-    batch = next(iter(batches))
-    batches.close()
+    batch = trainer.collect_batch()
     with torch.no_grad():
         for loss in trainer.losses.values():
             loss.value_estimator(batch)

@@ -48,15 +48,7 @@ def measure(run_dir: Path, rescored: bool) -> dict[str, Any]:
         f"resume={run_dir}",
     )
     trainer = Trainer(cfg, Path(tempfile.mkdtemp(prefix="log_prob_check_")))
-    batches = trainer.strategy.batches(
-        trainer.env,
-        trainer.collection_policy,
-        trainer.layout,
-        trainer.layout.frames_per_batch,
-        trainer.device,
-    )
-    batch = next(iter(batches))
-    batches.close()
+    batch = trainer.collect_batch()
     result: dict[str, Any] = {"frames": trainer.frames, "groups": {}}
     for group, loss in trainer.losses.items():
         keys = loss.tensor_keys

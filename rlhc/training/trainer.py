@@ -242,6 +242,21 @@ class Trainer:
             raise TrainingInterrupted(signum, self.frames, checkpoint)
         return last_metrics
 
+    def collect_batch(self) -> TensorDictBase:
+        """One batch ``[worlds, decisions]`` collected as :meth:`train` collects them,
+        outside the loop (benchmarks and checks; the counters are not advanced)."""
+        batches = self.strategy.batches(
+            self.env,
+            self.collection_policy,
+            self.layout,
+            self.layout.frames_per_batch,
+            self.device,
+        )
+        try:
+            return next(iter(batches))
+        finally:
+            batches.close()
+
     def update(self, batch: TensorDictBase) -> dict[str, float]:
         """One PPO update on a collected batch ``[worlds, decisions]``.
 
