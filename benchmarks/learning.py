@@ -138,7 +138,7 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         # (algo.rescore_log_prob): TanhNormal's atanh rescoring of its stored actions is
         # off where the pre-tanh value is large, and long_bounded seed 0 still logs a KL
         # of 0.064 per update at lr 2e-8 (0.053 measured on its own batch at unchanged
-        # weights, 1.3 % of its ratios outside the clip range).
+        # weights, 1.4 % of its ratios outside the clip range).
         "long_rescored": (
             "algo.rescore_log_prob=true",
             "algo.max_steps=10000000",

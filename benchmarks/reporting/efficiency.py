@@ -123,12 +123,14 @@ def efficiency_section(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str
     ]
     verdicts: list[str] = []
     budget = study.max_steps
+    curves_of = {
+        name: [score_curve(run.curves()) for run in group] for name, group in table_runs.items()
+    }
     for measure in measures(study, members):
         interval = share_interval if measure.share else positive_interval
         areas: dict[str, list[float]] = {}
         rows = []
-        for name, group in table_runs.items():
-            curves = [score_curve(run.curves()) for run in group]
+        for name, curves in curves_of.items():
             cells = []
             for mark in MARKS:
                 values = [

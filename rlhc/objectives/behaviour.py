@@ -6,7 +6,7 @@ of the pre-tanh sample it drew, but the loss can only rescore the stored (squash
 action, through ``atanh``: where the pre-tanh value is large (actions within ~1e-3 of a
 bound, float32) the two disagree (pre-tanh 6: up to 0.2 nats; 7: over 1; 8: hundreds). The ratio is then wrong
 before any update: a trained tennis policy (``long_bounded``, 10 M court-decisions)
-rescored on its own batch gives a KL of 0.053 at unchanged weights and 1.3 % of its
+rescored on its own batch gives a KL of 0.053 at unchanged weights and 1.4 % of its
 experiences outside the clip range. :func:`rescore_log_prob`, run before the first
 epoch, replaces the stored value with the loss's own scoring under the same weights:
 ratios start at exactly 1 and the errors cancel in the ratio. Exact only while the
