@@ -144,6 +144,18 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
             "algo.max_steps=10000000",
             "checkpoint_freq=250000",
         ),
+        # long_rescored with the actor reading the manager's view (the 8 values and the
+        # ball relative to the racket): on a falling ball, the final move of long_rescored
+        # seed 0 hardly depends on where the ball is (0.39 -> 0.57 over 4 m of ball x),
+        # long seed 1's not at all, while the two teams that rally best (long seed 0,
+        # probe_gaussian_lr_epochs seed 0) run towards it; on its missed serves (35 % of
+        # points) long_rescored seed 0 plays the same moves wherever the toss falls.
+        "long_actor_view": (
+            "algo.rescore_log_prob=true",
+            "algo.max_steps=10000000",
+            "checkpoint_freq=250000",
+            "model.actor_view=manager",
+        ),
         # long with the pre-tanh mean bounded (model.loc_bound): long seed 0 keeps a KL of
         # 0.037 per update at lr 2e-8 at the end (TanhNormal's log-probability of a
         # saturated mean, rebuilt through atanh) and collapses near 8 M.

@@ -4,26 +4,27 @@ A checkpoint (:meth:`rlhc.training.trainer.Trainer.state`) stores the resolved t
 each group's actor weights and the state of the training env's transforms. When
 ``algo.normalize_observations`` was on, that state holds a TorchRL ``VecNormV2`` over
 ``(g, "observation")`` and ``(g, "manager_observation")``; the actors were trained on
-normalised observations, so a restored policy must see its inputs through the *same*
-statistics, frozen. The training env is rebuilt with
+normalised observations, so a restored policy must see its inputs (whichever of the two
+its actor reads, ``model.actor_view``) through the *same* statistics, frozen. The training env is rebuilt with
 :func:`rlhc.building.builders.make_training_env` (one world) so that the normaliser's
 settings (decay, eps, keys) come from the one place that defines them.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import torch
 from omegaconf import OmegaConf
-from tensordict import TensorDictBase
+from tensordict import NestedKey, TensorDictBase
+from tensordict.nn import TensorDictModuleBase
 from torchrl.envs import EnvBase, Transform, VecNormV2
 
 from rlhc.building.builders import make_training_env, network_config
 from rlhc.config.train_schema import TrainConfig
-from rlhc.envs.keys import ACTION, OBSERVATION
+from rlhc.envs.keys import ACTION
 from rlhc.envs.registry import game_spec
 from rlhc.modules import make_actor
 
@@ -60,9 +61,11 @@ class RestoredPolicy:
 
     Attributes:
         actors: ``group -> actor`` (:func:`~rlhc.modules.make_actor`) reading
-            ``(g, "observation")``.
-        loc: ``group -> [n_g, d_w]`` normaliser mean, or ``None`` (no normalisation).
-        scale: ``group -> [n_g, d_w]`` normaliser scale, or ``None``.
+            ``(g, "observation")`` or, with ``model.actor_view=manager``,
+            ``(g, "manager_observation")``.
+        loc: ``group -> [n_g, d]`` normaliser mean of what the actor reads, or ``None``
+            (no normalisation).
+        scale: ``group -> [n_g, d]`` normaliser scale, or ``None``.
     """
 
     actors: dict[str, torch.nn.Module]
@@ -74,15 +77,26 @@ class RestoredPolicy:
 
         The input is not modified: observations are normalised in a copy.
         """
-        actions: dict[str, torch.Tensor] = {}
-        for group, actor in self.actors.items():
-            inputs = tensordict.select((group, OBSERVATION)).clone(recurse=False)
-            observation = tensordict[group, OBSERVATION]
-            if self.loc is not None and self.scale is not None:
-                observation = (observation - self.loc[group]) / self.scale[group]
-            inputs.set((group, OBSERVATION), observation)
-            actions[group] = actor(inputs)[group, ACTION]
-        return actions
+        return {
+            group: actor(self.inputs(group, tensordict))[group, ACTION]
+            for group, actor in self.actors.items()
+        }
+
+    def inputs(self, group: str, tensordict: TensorDictBase) -> TensorDictBase:
+        """What the actor of ``group`` reads, normalised, in a new tensordict."""
+        key = observation_key(self.actors[group])
+        observation = tensordict[key]
+        if self.loc is not None and self.scale is not None:
+            observation = (observation - self.loc[group]) / self.scale[group]
+        inputs = tensordict.select(key).clone(recurse=False)
+        inputs.set(key, observation)
+        return inputs
+
+
+def observation_key(actor: torch.nn.Module) -> NestedKey:
+    """The one observation an actor of :func:`~rlhc.modules.make_actor` reads."""
+    (key,) = cast(TensorDictModuleBase, actor).in_keys
+    return key
 
 
 def restore_policy(state: Mapping[str, Any], env: EnvBase) -> RestoredPolicy:
@@ -128,10 +142,11 @@ def restore_policy(state: Mapping[str, Any], env: EnvBase) -> RestoredPolicy:
 
 
 def normaliser_statistics(
-    transform: Transform, groups: Iterable[str]
+    transform: Transform, actors: Mapping[str, torch.nn.Module]
 ) -> tuple[dict[str, torch.Tensor] | None, dict[str, torch.Tensor] | None]:
-    """Copies of the worker-observation ``loc`` and ``scale`` of the ``VecNormV2`` in
-    ``transform`` (``(None, None)`` when it has none: observations are not normalised).
+    """Copies of the ``loc`` and ``scale`` of the ``VecNormV2`` in ``transform`` for the
+    observation each group's actor reads (``(None, None)`` when ``transform`` has none:
+    observations are not normalised).
 
     Statistics that never saw data (a checkpoint saved before the first step) have a
     zero bias correction and come out NaN: those entries are left unnormalised.
@@ -139,6 +154,7 @@ def normaliser_statistics(
     normaliser = next((t for t in transform if isinstance(t, VecNormV2)), None)
     if normaliser is None:
         return None, None
-    loc = {g: normaliser.loc[g, OBSERVATION].nan_to_num(0.0) for g in groups}
-    scale = {g: normaliser.scale[g, OBSERVATION].nan_to_num(1.0, posinf=1.0) for g in groups}
+    keys = {g: observation_key(actor) for g, actor in actors.items()}
+    loc = {g: normaliser.loc[key].nan_to_num(0.0) for g, key in keys.items()}
+    scale = {g: normaliser.scale[key].nan_to_num(1.0, posinf=1.0) for g, key in keys.items()}
     return loc, scale

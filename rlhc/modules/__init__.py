@@ -6,7 +6,7 @@ Examples:
 
 from __future__ import annotations
 
-from rlhc.modules.actors import make_actor
+from rlhc.modules.actors import actor_observation_key, make_actor
 from rlhc.modules.critics import make_manager_critic, make_worker_critic
 from rlhc.modules.schemas import ACTIVATIONS, NetworkConfig
 from rlhc.modules.shared import make_actor_value, shared_trunk_error
@@ -17,6 +17,7 @@ __all__ = [
     "EnvSpecs",
     "HasSpecs",
     "NetworkConfig",
+    "actor_observation_key",
     "make_actor",
     "make_actor_value",
     "make_manager_critic",

@@ -7,7 +7,9 @@
 | the same, ``action_dist=gaussian`` | loc; a learned log scale per action dimension, shared by every state and agent (``AddStateIndependentNormalScale``); both divided by ``cfg.pre_clip_range`` | ``IndependentNormal``, unsquashed: the env clips the sample |
 | ``Categorical`` ``[..., n_g]`` (soccer) | logits | ``torch.distributions.Categorical`` (integer actions, as the spec) |
 
-Both write ``(g, "action")`` and its log-probability ``(g, "action_log_prob")``. With
+Every actor reads ``(g, "observation")``, or ``(g, "manager_observation")`` with
+``cfg.actor_view="manager"`` (:func:`actor_observation_key`), and writes ``(g, "action")``
+and its log-probability ``(g, "action_log_prob")``. With
 ``cfg.shared_trunk`` a discrete actor is the policy half of
 :func:`~rlhc.modules.shared.make_actor_value` instead (same keys, other parameter names).
 """
@@ -28,7 +30,7 @@ from torch import nn
 from torchrl.data import Bounded, Categorical, Composite
 from torchrl.modules import IndependentNormal, MultiAgentMLP, ProbabilisticActor, TanhNormal
 
-from rlhc.envs.keys import ACTION, LOC, LOGITS, OBSERVATION, SCALE
+from rlhc.envs.keys import ACTION, LOC, LOGITS, MANAGER_OBSERVATION, OBSERVATION, SCALE
 from rlhc.modules.mlp import group_mlp
 from rlhc.modules.schemas import NetworkConfig
 from rlhc.modules.shared import make_actor_value
@@ -89,12 +91,24 @@ def _continuous_head(
     return nn.Sequential(mlp, extractor), TanhNormal, kwargs
 
 
+def actor_observation_key(group: str, cfg: NetworkConfig) -> tuple[str, str]:
+    """The observation the actor of ``group`` reads (``cfg.actor_view``).
+
+    Examples:
+        >>> from rlhc.modules import NetworkConfig
+        >>> actor_observation_key("racket", NetworkConfig(actor_view="manager"))
+        ('racket', 'manager_observation')
+    """
+    return (group, MANAGER_OBSERVATION if cfg.actor_view == "manager" else OBSERVATION)
+
+
 def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticTensorDictSequential:
     """The stochastic policy shared by all agents of ``group``.
 
     Args:
-        env: an env (or :class:`~rlhc.modules.specs.EnvSpecs`) holding
-            ``(group, "observation")`` and ``(group, "action")`` specs.
+        env: an env (or :class:`~rlhc.modules.specs.EnvSpecs`) holding the
+            observation the actor reads (:func:`actor_observation_key`) and
+            ``(group, "action")`` specs.
         group: the agent group, e.g. ``"racket"``.
         cfg: the MLP shape; with ``cfg.shared_trunk`` the policy operator of
             :func:`~rlhc.modules.shared.make_actor_value` (its own trunk: to share one
@@ -102,7 +116,7 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticTe
 
     Returns:
         A ``ProbabilisticActor`` (with ``cfg.shared_trunk``: TorchRL's policy operator,
-        trunk + head) reading ``(group, "observation")`` and writing
+        trunk + head) reading :func:`actor_observation_key` and writing
         ``(group, "action")`` and ``(group, "action_log_prob")``.
 
     Raises:
@@ -127,7 +141,8 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticTe
         policy = make_actor_value(env, group, cfg).get_policy_operator()
         assert isinstance(policy, ProbabilisticTensorDictSequential)
         return policy
-    n_agents, n_inputs = observation_size(env, group)
+    observation_key = actor_observation_key(group, cfg)
+    n_agents, n_inputs = observation_size(env, group, manager=cfg.actor_view == "manager")
     spec = action_spec(env, group)
     action_key = (group, ACTION)
     out_spec = Composite({action_key: spec}, shape=env.full_action_spec.shape)
@@ -138,7 +153,7 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticTe
             kwargs["low"] = _per_agent_bound(spec.space.low, size, "low")
             kwargs["high"] = _per_agent_bound(spec.space.high, size, "high")
         params = TensorDictModule(
-            net, in_keys=[(group, OBSERVATION)], out_keys=[(group, LOC), (group, SCALE)]
+            net, in_keys=[observation_key], out_keys=[(group, LOC), (group, SCALE)]
         )
         return ProbabilisticActor(
             params,
@@ -152,7 +167,7 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticTe
     if isinstance(spec, Categorical):
         logits = TensorDictModule(
             group_mlp(n_inputs, int(spec.space.n), n_agents, cfg),
-            in_keys=[(group, OBSERVATION)],
+            in_keys=[observation_key],
             out_keys=[(group, LOGITS)],
         )
         return ProbabilisticActor(

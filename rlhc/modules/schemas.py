@@ -14,7 +14,7 @@ from typing import Any
 from omegaconf import MISSING
 from torch import nn
 
-from rlhc.errors import allowed
+from rlhc.errors import ConfigError, allowed
 
 #: Activation names accepted in a config, mapped to their ``torch.nn`` classes.
 ACTIVATIONS: dict[str, type[nn.Module]] = {
@@ -44,6 +44,12 @@ ACTIVATIONS: dict[str, type[nn.Module]] = {
 #:   (the same distribution, parametrised in action units: ``loc = mu / 3``,
 #:   ``scale = sigma / 3``).
 ACTION_DISTRIBUTIONS: tuple[str, ...] = ("tanh_normal", "tanh_normal_bounded", "gaussian")
+
+#: What the actor reads (``model.actor_view``): ``worker``, the worker observation
+#: ``(g, "observation")`` (the paper's policy); ``manager``, the manager observation
+#: ``(g, "manager_observation")``, which holds the worker's and more (tennis: the ball
+#: relative to the racket, a difference the worker view leaves the network to learn).
+ACTOR_VIEWS: tuple[str, ...] = ("worker", "manager")
 
 
 @dataclass
@@ -90,6 +96,11 @@ class NetworkConfig:
             one seed so far (soccer PPO, 2 processes: 27-59-14 against the scripted
             team, separate networks 4-50-46; one-process separate-network seeds
             30-64-6 and 49-41-10; README "Do trained teams play?").
+        actor_view: the observation the actor reads, one of :data:`ACTOR_VIEWS`
+            (``worker``: the paper's; ``manager``: the manager critic's view, in tennis
+            the worker's 8 values and the ball relative to the racket). The critics
+            keep theirs (``critic.manager_view``). Not with ``shared_trunk`` (the trunk
+            reads the worker observation).
 
     Examples:
         >>> from rlhc.modules import NetworkConfig
@@ -106,6 +117,7 @@ class NetworkConfig:
     loc_bound: float = 5.0
     pre_clip_range: float = 1.0
     shared_trunk: bool = False
+    actor_view: str = "worker"
 
     def __post_init__(self) -> None:
         # The one check of these settings (rlhc.config.validation checks the rest of a config).
@@ -125,6 +137,14 @@ class NetworkConfig:
             raise allowed("model.action_dist", self.action_dist, ", ".join(ACTION_DISTRIBUTIONS))
         if _given(self.activation) and self.activation not in ACTIVATIONS:
             raise allowed("model.activation", self.activation, ", ".join(ACTIVATIONS))
+        if _given(self.actor_view) and self.actor_view not in ACTOR_VIEWS:
+            raise allowed("model.actor_view", self.actor_view, ", ".join(ACTOR_VIEWS))
+        if self.shared_trunk is True and self.actor_view == "manager":
+            raise ConfigError(
+                "model.actor_view=manager cannot be combined with model.shared_trunk=true: "
+                "the shared trunk reads the worker observation (allowed: actor_view=worker, "
+                "or shared_trunk=false)"
+            )
 
     @property
     def activation_class(self) -> type[nn.Module]:

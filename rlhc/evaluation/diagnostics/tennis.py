@@ -53,13 +53,7 @@ class _RecordingPolicy:
         self.restored = restored
 
     def __call__(self, tensordict: TensorDictBase) -> TensorDictBase:
-        actor = self.restored.actors[GROUP]
-        observation = tensordict[GROUP, OBSERVATION]
-        if self.restored.loc is not None and self.restored.scale is not None:
-            observation = (observation - self.restored.loc[GROUP]) / self.restored.scale[GROUP]
-        inputs = tensordict.select((GROUP, OBSERVATION)).clone(recurse=False)
-        inputs.set((GROUP, OBSERVATION), observation)
-        out = actor(inputs)
+        out = self.restored.actors[GROUP](self.restored.inputs(GROUP, tensordict))
         tensordict.set((GROUP, ACTION), out[GROUP, ACTION])
         tensordict.set((GROUP, SCALE), out[GROUP, SCALE].expand_as(out[GROUP, ACTION]))
         return tensordict
