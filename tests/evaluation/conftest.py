@@ -32,3 +32,14 @@ def checkpoints(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         Trainer(smoke_config(env, "algo.max_steps=256", "logger.backends=[csv]"), run_dir).train()
         runs[env] = run_dir
     return runs
+
+
+@pytest.fixture(scope="session")
+def manager_view_checkpoint(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Run directory of a one-update tennis run whose actor reads the manager observation."""
+    from rlhc.training.trainer import Trainer
+
+    run_dir = tmp_path_factory.mktemp("tennis_manager_view")
+    overrides = ("algo.max_steps=256", "logger.backends=[csv]", "model.actor_view=manager")
+    Trainer(smoke_config("tennis", *overrides), run_dir).train()
+    return run_dir

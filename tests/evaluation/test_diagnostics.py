@@ -37,6 +37,14 @@ def test_an_untrained_team_is_measured_in_both_modes(checkpoints: dict[str, Path
     assert json.dumps(again, sort_keys=True) == json.dumps(result, sort_keys=True)
 
 
+def test_a_team_reading_the_manager_view_is_measured(manager_view_checkpoint: Path) -> None:
+    state = load_team(str(manager_view_checkpoint))
+    result = tennis_diagnostics(state, worlds=4, decisions=200, seed=3)
+    assert result["points"] > 0 and math.isfinite(result["hits_per_point"])
+    for name in ACTION_NAMES:  # a fresh net: the same scale near the ball and elsewhere
+        assert result["sigma_near"][name] == pytest.approx(result["sigma_far"][name], rel=0.2)
+
+
 def test_a_soccer_team_is_refused(checkpoints: dict[str, Path]) -> None:
     with pytest.raises(ValueError, match="needs a tennis team, got one of 'soccer'"):
         tennis_diagnostics(load_team(str(checkpoints["soccer"])), worlds=1, decisions=2)

@@ -148,7 +148,10 @@ def test_checkpoints_with_different_observations_cannot_meet(tmp_path: Path) -> 
         player_options([str(tmp_path / "plain"), str(tmp_path / "extended")], "tennis")
 
 
-def test_restored_policy_sees_what_the_trained_actor_saw(checkpoints: dict[str, Path]) -> None:
+@pytest.mark.parametrize("view", ["worker", "manager"])
+def test_restored_policy_sees_what_the_trained_actor_saw(
+    view: str, checkpoints: dict[str, Path], request: pytest.FixtureRequest
+) -> None:
     from torchrl.envs import VecNormV2
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
@@ -156,17 +159,25 @@ def test_restored_policy_sees_what_the_trained_actor_saw(checkpoints: dict[str, 
     from rlhc.evaluation.policies import checkpoint_config, restore_policy
     from rlhc.storage.checkpoint import load_checkpoint
 
-    state = load_checkpoint(checkpoints["tennis"])
+    run = (
+        checkpoints["tennis"]
+        if view == "worker"
+        else request.getfixturevalue("manager_view_checkpoint")
+    )
+    key = "observation" if view == "worker" else "manager_observation"
+    state = load_checkpoint(run)
     training_env = make_training_env(checkpoint_config(state), num_envs=3, seed=1)
     training_env.transform.load_state_dict(state["env_transform"])
     next(t for t in training_env.transform if isinstance(t, VecNormV2)).freeze()
     normalised = training_env.reset()
-    raw = training_env.base_env.game.observe()["racket"].observation  # the same state
+    game = training_env.base_env.game.observe()["racket"]  # the same state, raw
+    raw = game.observation if view == "worker" else game.manager_observation
     policy = restore_policy(state, make_env("tennis", num_envs=3, seed=1))
+    assert policy.actors["racket"].in_keys == [("racket", key)]
     assert policy.loc is not None and policy.scale is not None
     expected = (torch.from_numpy(raw) - policy.loc["racket"]) / policy.scale["racket"]
-    torch.testing.assert_close(normalised["racket", "observation"], expected)
-    raw_td = TensorDict({("racket", "observation"): torch.from_numpy(raw)}, [3])
+    torch.testing.assert_close(normalised["racket", key], expected)
+    raw_td = TensorDict({("racket", key): torch.from_numpy(raw)}, [3])
     with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad():
         trained = policy.actors["racket"](normalised.clone())["racket", "action"]
         torch.testing.assert_close(policy(raw_td)["racket"], trained)
@@ -176,6 +187,7 @@ def test_tennis_summaries_count_hits_over_the_net_per_point_by_side() -> None:
     from rlhc.evaluation.matches import evaluate_against
     from rlhc.evaluation.opponents import make_team_policy
 
+    torch.manual_seed(0)  # the random team samples from torch's generator: order-free
     env = make_env("tennis", num_envs=4, seed=0)
     rally = evaluate_against(make_team_policy("scripted", env), "scripted", env, 4)
     hits = rally["hits_over_net_by_team_per_point"]

@@ -154,6 +154,23 @@ def test_network_config_validation() -> None:
         NetworkConfig(hidden_size=0)
 
 
+def test_actor_view_chooses_the_observation_the_actor_reads() -> None:
+    td = observations("racket", 4)
+    worker = make_actor(TENNIS, "racket", CFG)
+    manager = make_actor(TENNIS, "racket", dataclasses.replace(CFG, actor_view="manager"))
+    assert worker.in_keys == [("racket", "observation")]
+    assert manager.in_keys == [("racket", "manager_observation")]
+    first = next(m for m in manager.modules() if isinstance(m, torch.nn.Linear))
+    assert first.in_features == 10  # the manager's view, not the worker's 8
+    with torch.no_grad():
+        out = manager(td.exclude(("racket", "observation")))
+    assert out["racket", "action"].shape == (N_WORLDS, STEPS, 4, 3)
+    with pytest.raises(ConfigError, match=r"model\.actor_view='critic'; allowed: worker, manager"):
+        NetworkConfig(actor_view="critic")
+    with pytest.raises(ConfigError, match=r"actor_view=manager.*shared_trunk=true"):
+        NetworkConfig(actor_view="manager", shared_trunk=True)
+
+
 def test_config_sets_depth_and_width() -> None:
     critic = make_worker_critic(TENNIS, "racket", NetworkConfig(num_layers=3, hidden_size=32))
     linears = [m for m in critic.modules() if isinstance(m, torch.nn.Linear)]
