@@ -5,7 +5,10 @@ directory — its ``final_team.pt`` or newest checkpoint —, a checkpoint, or a
 file) and writes ``--out`` (JSON, one entry per team, with the command that rebuilds it)
 and prints a Markdown table: hits over the net per point sampled and with mode actions,
 the policy's scale near the ball and elsewhere (move / jump / tilt), the share of
-saturated actions and of moves toward a ball in the racket's half.
+saturated actions and of moves toward a ball in the racket's half, and the
+:func:`~rlhc.evaluation.diagnostics.tennis.tracking_probe` (does the racket run to a
+falling ball? the gain of its move on the ball's offset, and how often it moves towards
+it), with the scripted team's probe as the reference.
 
 Usage::
 
@@ -26,8 +29,11 @@ from typing import Any
 import torch
 
 from benchmarks.reporting.summary import code_version
+from rlhc.envs import make_env
 from rlhc.envs.tennis.rules import POINT_ENDINGS
-from rlhc.evaluation.diagnostics.tennis import ACTION_NAMES, tennis_diagnostics
+from rlhc.envs.tennis.scripted import ScriptedTennisPolicy
+from rlhc.evaluation.diagnostics.tennis import ACTION_NAMES, tennis_diagnostics, tracking_probe
+from rlhc.evaluation.policies import observation_options, restore_policy
 from rlhc.storage.final_team import load_team
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -44,8 +50,32 @@ def row(name: str, result: dict[str, Any]) -> str:
         f"| {triple(result['sigma_near'])} | {triple(result['sigma_far'])} "
         f"| {triple(result['saturated'])} | {result['toward_ball']:.2f} "
         f"| {result['toward_ball_mode']:.2f} | {endings(result['ended'])} "
-        f"| {endings(result['ended_mode'])} |"
+        f"| {endings(result['ended_mode'])} | {tracking(result['tracking'])} |"
     )
+
+
+def tracking(probe: dict[str, Any]) -> str:
+    """The tracking probe's gain (per metre) and share of moves towards the ball."""
+    return f"{probe['gain']:.2f} / {probe['toward']:.2f}"
+
+
+def team_tracking(state: dict[str, Any]) -> dict[str, Any]:
+    """:func:`tracking_probe` of a trained team, through its frozen normaliser."""
+    options = observation_options(state)
+    env = make_env("tennis", num_envs=1, seed=0, **options)
+    policy = restore_policy(state, env)
+    env.close()
+    return tracking_probe(policy, extended_obs=bool(options.get("extended_obs", False)))
+
+
+def scripted_tracking() -> dict[str, Any]:
+    """:func:`tracking_probe` of the built-in scripted team (the reference row)."""
+    scripted = ScriptedTennisPolicy()
+
+    def team(td: Any) -> dict[str, torch.Tensor]:
+        return {"racket": torch.from_numpy(scripted(td["racket", "observation"].numpy()))}
+
+    return tracking_probe(team)
 
 
 def endings(shares: dict[str, float]) -> str:
@@ -56,8 +86,9 @@ def endings(shares: dict[str, float]) -> str:
 HEADER = (
     "| team | hits/point | hits/point (mode) | scale near ball (move/jump/tilt) "
     "| scale elsewhere | saturated | toward ball | toward ball (mode) "
-    f"| points ended ({' / '.join(POINT_ENDINGS)}) | the same (mode) |\n"
-    "|---|---:|---:|---|---|---|---:|---:|---|---|"
+    f"| points ended ({' / '.join(POINT_ENDINGS)}) | the same (mode) "
+    "| falling ball: gain / toward |\n"
+    "|---|---:|---:|---|---|---|---:|---:|---|---|---|"
 )
 
 
@@ -76,17 +107,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         result = tennis_diagnostics(
             state, worlds=args.worlds, decisions=args.decisions, seed=args.seed
         )
+        result["tracking"] = team_tracking(state)
         result["frames"] = int(state.get("frames", 0))
         result["source"] = Path(state["path"]).name
         teams[team] = result
         print(row(team, result), flush=True)
     command = shlex.join(["python", "-m", "benchmarks.tennis_play", *sys.argv[1:]])
-    payload = {"command": command, "code_version": code_version(), "teams": teams}
+    reference = scripted_tracking()
+    payload = {
+        "command": command,
+        "code_version": code_version(),
+        "scripted_tracking": reference,
+        "teams": teams,
+    }
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(payload, indent=2) + "\n")
     print(HEADER)
     for team, result in teams.items():
         print(row(team, result))
+    print(f"| scripted team | | | | | | | | | | {tracking(reference)} |")
     return 0
 
 
