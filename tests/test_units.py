@@ -90,6 +90,8 @@ def test_one_update_takes_exactly_the_documented_world_decisions(
         (("algo.lr=inf",), "algo.lr=inf"),
         (("algo.entropy_coef=nan",), "algo.entropy_coef=nan"),
         (("algo.clip_epsilon=-1",), "algo.clip_epsilon=-1"),
+        (("algo.max_importance_ratio=1.1",), "algo.max_importance_ratio=1.1"),
+        (("model.actor_view=critic",), "model.actor_view='critic'"),
     ],
 )
 def test_bad_settings_fail_before_training_naming_the_key(

@@ -313,5 +313,6 @@ def make_agents(
             manager_diagnostics=cfg.critic.manager_diagnostics,
             # Collected batches are trajectories: the critics run once per batch.
             shifted=True,
+            max_importance_ratio=cfg.algo.max_importance_ratio,
         ).to(cfg.device)
     return actors, losses

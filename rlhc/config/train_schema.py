@@ -108,6 +108,14 @@ class PPOConfig:
             where the pre-tanh value is large, so ratios start away from 1. Off by
             default (the committed runs were trained without it); one process or
             data-parallel only (a pipeline trains on batches of older weights).
+        max_importance_ratio: the cap of the ratio ``pi / pi_old`` in the surrogate
+            (TorchRL's ``ClipPPOLoss(max_importance_ratio=...)``: a capped experience
+            keeps a rescaled gradient; ``null``: no cap). Above ``1 + clip_epsilon`` it
+            changes nothing but where a ratio explodes: a ``TanhNormal`` action at its
+            bound has a log-probability near -1000, which one step can move by hundreds
+            of nats; ``exp`` then overflows and the update turns the weights into NaN
+            (``long_actor_view`` seed 1 at 4.25 M court-decisions: a log ratio of 245 on
+            one experience). 100, as the PPO-EWMA reference implementation.
         normalize_observations: running mean/std normalisation of both observations
             (the paper's ``normalize``).
     """
@@ -132,6 +140,7 @@ class PPOConfig:
     max_grad_norm: float = 0.5
     normalize_advantage: bool = True
     rescore_log_prob: bool = False
+    max_importance_ratio: float | None = 100.0
     normalize_observations: bool = MISSING
 
 

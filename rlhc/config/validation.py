@@ -120,6 +120,13 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
             raise ConfigError(
                 f"{name}={number}; allowed: a finite number in {bracket}{low}, {high})"
             )
+    cap = cfg.algo.max_importance_ratio
+    if cap is not None and not (math.isfinite(cap) and cap > 1.0 + cfg.algo.clip_epsilon):
+        raise ConfigError(
+            f"algo.max_importance_ratio={cap}; allowed: null (no cap) or a finite number "
+            f"above 1 + algo.clip_epsilon = {1.0 + cfg.algo.clip_epsilon} (a lower cap "
+            "would bind inside the clip range)"
+        )
     if cfg.shaping.scale > 0 and cfg.env.name not in shapable_games():
         raise ConfigError(
             f"shaping.scale={cfg.shaping.scale} on env={cfg.env.name!r}; allowed: 0, or "

@@ -180,6 +180,12 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             loss_critic_type=loss_critic_type,
             **ppo_kwargs,
         )
+        if self.max_importance_ratio is not None:
+            # A setting (the config holds it), not learned state: checkpoints keep
+            # their keys, and a cap set now applies to a run resumed from an older one.
+            self.register_buffer(
+                "max_importance_ratio", self.max_importance_ratio, persistent=False
+            )
         # What the last loss_critic call computed, for forward's diagnostics (detached).
         self._critic_split: _CriticTerms | None = None
 
@@ -413,6 +419,7 @@ def make_ppo_loss(
     reduction: str = "mean",
     manager_diagnostics: bool = False,
     shifted: bool = False,
+    max_importance_ratio: float | None = None,
 ) -> HierarchicalPPOLoss:
     """The PPO loss of one group, with its hierarchical value estimator attached.
 
@@ -441,6 +448,9 @@ def make_ppo_loss(
         shifted: the estimator reads trajectories and runs the critics once per batch
             (see :class:`~rlhc.objectives.value.HierarchicalValueEstimator`); the
             trainer's collected batches are.
+        max_importance_ratio: cap of the ratio ``pi / pi_old`` in the surrogate
+            (``ClipPPOLoss``'s; ``None``: none), so that a ratio whose exponential
+            overflows cannot turn the loss infinite.
 
     Returns:
         A :class:`HierarchicalPPOLoss`; its ``value_estimator`` is a
@@ -479,6 +489,7 @@ def make_ppo_loss(
         # silence ClipPPOLoss's multi-agent warning.
         normalize_advantage_exclude_dims=(-2,),
         reduction=reduction,
+        max_importance_ratio=max_importance_ratio,
     )
     loss.set_keys(
         advantage=(group, keys.ADVANTAGE),

@@ -227,6 +227,31 @@ def test_value_clipping_is_refused(networks: Callable) -> None:
 # --- TorchRL's public hooks -------------------------------------------------------------
 
 
+def test_an_exploding_ratio_is_capped_rather_than_infinite(networks: Callable) -> None:
+    # A TanhNormal action at its bound was scored about -1000 nats when collected; one
+    # step can move its log-probability by hundreds, and exp(log ratio) overflows.
+    for cap in (None, 100.0):
+        loss = build_loss(networks, max_importance_ratio=cap)
+        data = collected(loss)
+        loss.value_estimator(data)
+        keys = loss.tensor_keys
+        stale = data[keys.sample_log_prob].clone()
+        stale.view(-1)[0] -= 300.0  # the collected log-probability of one experience
+        data.set(keys.sample_log_prob, stale)
+        data.set(keys.advantage, -data[keys.advantage].abs())  # every experience bad
+        out = loss(data)
+        grads = torch.autograd.grad(
+            out["loss_objective"], list(loss.actor_network_params.values(True, True))
+        )
+        finite = torch.isfinite(out["loss_objective"]) and all(
+            torch.isfinite(g).all() for g in grads
+        )
+        assert finite == (cap is not None), cap
+    # A setting, not state: checkpoints keep their keys either way.
+    assert "max_importance_ratio" not in loss.state_dict()
+    assert float(loss.max_importance_ratio) == 100.0
+
+
 def test_state_dict_keys_are_stable(networks: Callable) -> None:
     # Checkpoints hold loss.state_dict(): the estimator adds gamma and lambda only.
     loss = build_loss(networks)
