@@ -156,6 +156,16 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
             "checkpoint_freq=250000",
             "model.actor_view=manager",
         ),
+        # long_actor_view with the pre-tanh sample stored and scored: its seed 1 rallied 9.5
+        # hits per point with itself at 4.0 M (14.8 with mode actions), then a saturated
+        # action rescored through atanh at -1007 nats moved by 245 in one step, the
+        # weights went NaN, and with the ratio capped its KL per update reached 4e4.
+        "long_actor_view_exact": (
+            "algo.max_steps=10000000",
+            "checkpoint_freq=250000",
+            "model.actor_view=manager",
+            "model.action_dist=tanh_normal_exact",
+        ),
         # probe_mlagents_lr_epochs (11.4 hits per point with itself, mode actions, but 13.6 %
         # of points against the scripted team: a rally with itself) in a league where 30 %
         # of the courts play the scripted team and 20 % past selves, its actor reading the

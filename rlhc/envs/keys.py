@@ -54,6 +54,10 @@ RESET = "_reset"
 #: Log-probability of the sampled action, written by ``ProbabilisticActor``
 #: (``<action leaf>_log_prob`` in TorchRL 0.14 when log-probs are not aggregated).
 ACTION_LOG_PROB = "action_log_prob"
+#: ``model.action_dist=tanh_normal_exact``: the pre-tanh sample an action was squashed
+#: from, stored next to it so that the loss scores exactly what was drawn; its
+#: log-probability is ``action_pretanh_log_prob``.
+PRE_TANH_ACTION = "action_pretanh"
 #: Gaussian parameters and logits: intermediate actor outputs.
 LOC = "loc"
 SCALE = "scale"
@@ -101,6 +105,7 @@ __all__ = [
     "MANAGER_VALUE",
     "NEXT",
     "OBSERVATION",
+    "PRE_TANH_ACTION",
     "RANDOM",
     "RESET",
     "REWARD",

@@ -4,6 +4,7 @@
 |---|---|---|
 | ``Bounded`` ``[..., n_g, size]`` (tennis), ``action_dist=tanh_normal`` | loc, scale (``NormalParamExtractor``; the scale is ``cfg.initial_action_scale`` for a zero output) | ``TanhNormal`` squashed into the spec's bounds |
 | the same, ``action_dist=tanh_normal_bounded`` | the same | ``TanhNormal`` with the pre-tanh mean bounded to ``cfg.loc_bound`` |
+| the same, ``action_dist=tanh_normal_exact`` | the same | :class:`PreTanhNormal` over the pre-tanh value ``u``, stored as ``(g, "action_pretanh")``; the action is ``u`` squashed into the bounds (:class:`Squash`) |
 | the same, ``action_dist=gaussian`` | loc; a learned log scale per action dimension, shared by every state and agent (``AddStateIndependentNormalScale``); both divided by ``cfg.pre_clip_range`` | ``IndependentNormal``, unsquashed: the env clips the sample |
 | ``Categorical`` ``[..., n_g]`` (soccer) | logits | ``torch.distributions.Categorical`` (integer actions, as the spec) |
 
@@ -23,14 +24,26 @@ import torch
 from tensordict.nn import (
     AddStateIndependentNormalScale,
     NormalParamExtractor,
+    ProbabilisticTensorDictModule,
     ProbabilisticTensorDictSequential,
     TensorDictModule,
+    TensorDictModuleBase,
+    TensorDictSequential,
 )
 from torch import nn
+from torch.nn import functional as F
 from torchrl.data import Bounded, Categorical, Composite
 from torchrl.modules import IndependentNormal, MultiAgentMLP, ProbabilisticActor, TanhNormal
 
-from rlhc.envs.keys import ACTION, LOC, LOGITS, MANAGER_OBSERVATION, OBSERVATION, SCALE
+from rlhc.envs.keys import (
+    ACTION,
+    LOC,
+    LOGITS,
+    MANAGER_OBSERVATION,
+    OBSERVATION,
+    PRE_TANH_ACTION,
+    SCALE,
+)
 from rlhc.modules.mlp import group_mlp
 from rlhc.modules.schemas import NetworkConfig
 from rlhc.modules.shared import make_actor_value
@@ -55,6 +68,64 @@ def _scale_head(mlp: MultiAgentMLP, factor: float) -> MultiAgentMLP:
             for key in head:
                 mlp.params.get(key).mul_(factor)
     return mlp
+
+
+class PreTanhNormal(IndependentNormal):
+    """The Normal of a ``TanhNormal`` action's pre-tanh value ``u``, scored as drawn.
+
+    ``tanh_normal_exact`` stores ``u`` next to the squashed action, and PPO's ratio
+    ``pi'(a) / pi(a)`` equals ``N'(u) / N(u)``: the tanh's Jacobian is the same factor
+    in both and cancels. A ``TanhNormal`` instead rebuilds ``u`` as ``atanh(a)``, which
+    float32 cannot once ``|u| > ~9`` (every such action is ``+-1``): there a log-ratio
+    is off by up to thousands of nats.
+
+    The entropy is that of the squashed action, as the bonus should see it: the
+    Normal's closed form plus a one-sample (reparametrised) estimate of
+    ``E[log(1 - tanh(u)^2)]`` per dimension, so that saturating costs entropy as it
+    does for a ``TanhNormal``; in units where the bounds are ``+-1``.
+
+    Examples:
+        >>> import torch
+        >>> dist = PreTanhNormal(torch.full((2, 3), 12.0), torch.full((2, 3), 0.05))
+        >>> u = dist.sample()
+        >>> bool(torch.isfinite(dist.log_prob(u)).all())  # scored as drawn, far past atanh's range
+        True
+    """
+
+    def entropy(self) -> torch.Tensor:
+        u = self.rsample()
+        # log(1 - tanh(u)^2) = 2 (log 2 - u - softplus(-2u)), stable at any |u|.
+        log_jacobian = 2.0 * (math.log(2.0) - u - F.softplus(-2.0 * u))
+        return super().entropy() + log_jacobian.sum(-1)
+
+
+class Squash(nn.Module):
+    """``u -> low + (high - low) (tanh(u) + 1) / 2``: a pre-tanh sample into the bounds."""
+
+    low: torch.Tensor
+    high: torch.Tensor
+
+    def __init__(self, low: torch.Tensor, high: torch.Tensor) -> None:
+        super().__init__()
+        # Settings of the action spec, not learned: out of the state dict.
+        self.register_buffer("low", low, persistent=False)
+        self.register_buffer("high", high, persistent=False)
+
+    def forward(self, u: torch.Tensor) -> torch.Tensor:
+        return self.low + (self.high - self.low) * (torch.tanh(u) + 1.0) / 2.0
+
+
+def scored_policy(actor: TensorDictModuleBase) -> ProbabilisticTensorDictSequential:
+    """The part of a :func:`make_actor` actor whose distribution the loss scores.
+
+    The actor itself, but for ``tanh_normal_exact``, whose actor draws the pre-tanh
+    value and then squashes it: the loss scores the draw.
+    """
+    if isinstance(actor, (ProbabilisticTensorDictSequential, ProbabilisticTensorDictModule)):
+        return actor  # type: ignore[return-value]
+    draw = actor.module[0]  # type: ignore[index]
+    assert isinstance(draw, ProbabilisticTensorDictSequential), type(draw)
+    return draw
 
 
 class _Rescale(nn.Module):
@@ -88,6 +159,8 @@ def _continuous_head(
     kwargs: dict[str, Any] = {}
     if cfg.action_dist == "tanh_normal_bounded":
         kwargs = {"tanh_loc": True, "upscale": cfg.loc_bound}
+    if cfg.action_dist == "tanh_normal_exact":
+        return nn.Sequential(mlp, extractor), PreTanhNormal, kwargs
     return nn.Sequential(mlp, extractor), TanhNormal, kwargs
 
 
@@ -102,7 +175,7 @@ def actor_observation_key(group: str, cfg: NetworkConfig) -> tuple[str, str]:
     return (group, MANAGER_OBSERVATION if cfg.actor_view == "manager" else OBSERVATION)
 
 
-def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticTensorDictSequential:
+def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModuleBase:
     """The stochastic policy shared by all agents of ``group``.
 
     Args:
@@ -117,7 +190,10 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticTe
     Returns:
         A ``ProbabilisticActor`` (with ``cfg.shared_trunk``: TorchRL's policy operator,
         trunk + head) reading :func:`actor_observation_key` and writing
-        ``(group, "action")`` and ``(group, "action_log_prob")``.
+        ``(group, "action")`` and ``(group, "action_log_prob")``; for
+        ``tanh_normal_exact`` a ``TensorDictSequential`` of the ``ProbabilisticActor``
+        of the pre-tanh value (``(group, "action_pretanh")`` and its log-probability:
+        :func:`scored_policy`) and the :class:`Squash` writing ``(group, "action")``.
 
     Raises:
         TypeError: the action spec is neither ``Bounded`` nor ``Categorical``.
@@ -155,6 +231,22 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> ProbabilisticTe
         params = TensorDictModule(
             net, in_keys=[observation_key], out_keys=[(group, LOC), (group, SCALE)]
         )
+        if distribution is PreTanhNormal:
+            draw = ProbabilisticActor(
+                params,
+                in_keys=[(group, LOC), (group, SCALE)],
+                out_keys=[(group, PRE_TANH_ACTION)],
+                distribution_class=PreTanhNormal,
+                return_log_prob=True,
+            )
+            squash = Squash(
+                _per_agent_bound(spec.space.low, size, "low"),
+                _per_agent_bound(spec.space.high, size, "high"),
+            )
+            return TensorDictSequential(
+                draw,
+                TensorDictModule(squash, in_keys=[(group, PRE_TANH_ACTION)], out_keys=[action_key]),
+            )
         return ProbabilisticActor(
             params,
             in_keys=[(group, LOC), (group, SCALE)],

@@ -43,7 +43,16 @@ ACTIVATIONS: dict[str, type[nn.Module]] = {
 #:   ``sigma = 1`` at first and plays ``clip(u, -3, 3) / 3``: here ``pre_clip_range=3``
 #:   (the same distribution, parametrised in action units: ``loc = mu / 3``,
 #:   ``scale = sigma / 3``).
-ACTION_DISTRIBUTIONS: tuple[str, ...] = ("tanh_normal", "tanh_normal_bounded", "gaussian")
+#: - ``tanh_normal_exact``: ``tanh_normal``'s policy (per-state scale, tanh squashing)
+#:   with its pre-tanh sample stored next to the action and scored by the loss, so the
+#:   ratio is exact at any saturation (the tanh's Jacobian cancels in it); its entropy is
+#:   the Normal's closed form plus a one-sample estimate of the squashing's log-Jacobian.
+ACTION_DISTRIBUTIONS: tuple[str, ...] = (
+    "tanh_normal",
+    "tanh_normal_bounded",
+    "tanh_normal_exact",
+    "gaussian",
+)
 
 #: What the actor reads (``model.actor_view``): ``worker``, the worker observation
 #: ``(g, "observation")`` (the paper's policy); ``manager``, the manager observation
@@ -67,8 +76,10 @@ class NetworkConfig:
         action_dist: continuous actions: the policy's parametrisation, one of
             :data:`ACTION_DISTRIBUTIONS` (``tanh_normal``: per-state scale, tanh
             squashing; ``tanh_normal_bounded``: the same with the pre-tanh mean bounded
-            to ``loc_bound``; ``gaussian``: ML-Agents 0.5's state-free learned scale,
-            no squashing, the env clips). Ignored by discrete actions.
+            to ``loc_bound``; ``tanh_normal_exact``: the same policy as ``tanh_normal``
+            with its pre-tanh sample stored and scored, so that a saturated action's
+            ratio is exact; ``gaussian``: ML-Agents 0.5's state-free learned scale, no
+            squashing, the env clips). Ignored by discrete actions.
         initial_action_scale: continuous actions: the policy's scale (before the tanh
             squashing) at initialisation (``> 0``): for ``tanh_normal*`` the scale of a
             zero network output, for ``gaussian`` the initial value of the learned

@@ -16,13 +16,19 @@ from typing import Any, NamedTuple
 
 import torch
 from tensordict import TensorDictBase
-from tensordict.nn import ProbabilisticTensorDictSequential, TensorDictModule, TensorDictSequential
+from tensordict.nn import (
+    ProbabilisticTensorDictSequential,
+    TensorDictModule,
+    TensorDictModuleBase,
+    TensorDictSequential,
+)
 from tensordict.utils import NestedKey
 from torch import Tensor
 from torchrl.objectives import AUTO_LOSS_MASK_KEYS, ClipPPOLoss, ValueEstimators
 from torchrl.objectives.utils import distance_loss
 
 from rlhc.modules import keys
+from rlhc.modules.actors import scored_policy
 from rlhc.objectives.value import HierarchicalValueEstimator
 
 #: Output keys of :class:`HierarchicalPPOLoss` that carry gradient; sum these.
@@ -402,7 +408,7 @@ class HierarchicalPPOLoss(ClipPPOLoss):
 
 def make_ppo_loss(
     *,
-    actor: ProbabilisticTensorDictSequential,
+    actor: TensorDictModuleBase,
     worker_critic: TensorDictModule,
     manager_critic: TensorDictModule,
     group: str,
@@ -424,7 +430,9 @@ def make_ppo_loss(
     """The PPO loss of one group, with its hierarchical value estimator attached.
 
     Args:
-        actor: the group's policy (:func:`~rlhc.modules.make_actor`).
+        actor: the group's policy (:func:`~rlhc.modules.make_actor`); the loss scores
+            its :func:`~rlhc.modules.actors.scored_policy` (``tanh_normal_exact``: the
+            pre-tanh draw).
         worker_critic: ``V_w`` (:func:`~rlhc.modules.make_worker_critic`).
         manager_critic: ``V_m`` (:func:`~rlhc.modules.make_manager_critic`).
         group: the agent group, e.g. ``"racket"``; every key is nested under it.
@@ -477,7 +485,7 @@ def make_ppo_loss(
         'max'
     """
     loss = HierarchicalPPOLoss(
-        actor,
+        scored_policy(actor),
         worker_critic,
         manager_critic,
         clip_epsilon=clip_epsilon,

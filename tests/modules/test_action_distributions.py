@@ -21,6 +21,7 @@ from torch.testing import assert_close
 from torchrl.modules import TanhNormal
 
 from rlhc.modules import NetworkConfig, make_actor, make_manager_critic, make_worker_critic
+from rlhc.modules.actors import PreTanhNormal, scored_policy
 from rlhc.modules.schemas import ACTION_DISTRIBUTIONS
 from rlhc.objectives import LOSS_KEYS, make_ppo_loss
 
@@ -98,11 +99,14 @@ def test_stored_actions_score_as_they_were_sampled(action_dist: str) -> None:
     # up to float32 rounding while the mean is not saturated.
     torch.manual_seed(0)
     actor = make_actor(make_specs(), GROUP, dataclasses.replace(CFG, action_dist=action_dist))
+    draw = scored_policy(actor)  # the actor, or tanh_normal_exact's pre-tanh draw
+    (sample,), (log_prob,) = draw.dist_sample_keys, draw.log_prob_keys
     with torch.no_grad():
         td = actor(observations(scale=5.0))
-        rescored = actor.get_dist(td).log_prob(td[GROUP, "action"])
-    if action_dist == "gaussian":
-        assert torch.equal(rescored, td[GROUP, "action_log_prob"])
+        rescored = draw.get_dist(td).log_prob(td[sample])
+    assert action_dist == "gaussian" or td[GROUP, "action"].abs().max() <= 1.0  # squashed
+    if action_dist in ("gaussian", "tanh_normal_exact"):
+        assert torch.equal(rescored, td[log_prob])
     else:
         assert_close(rescored, td[GROUP, "action_log_prob"], atol=1e-3, rtol=0)
 
@@ -120,6 +124,33 @@ def test_bounded_tanh_normal_scores_saturated_actions_close_to_their_preimage() 
     bounded = TanhNormal(loc, scale, low=-1.0, high=1.0, tanh_loc=True, upscale=5.0)
     action, exact = bounded.sample_and_log_prob()
     assert (bounded.log_prob(action) - exact).abs().max() < 0.05
+
+
+def test_the_exact_tanh_normal_scores_saturated_actions_as_drawn() -> None:
+    # Where TanhNormal's atanh is thousands of nats off (loc 12, scale 0.05: see
+    # above), the pre-tanh draw scores exactly, and its ratio is TanhNormal's:
+    # log pi'(a) - log pi(a) = log N'(u) - log N(u), the Jacobian cancelling.
+    torch.manual_seed(0)
+    loc, scale = torch.full((1000, 3), 12.0), torch.full((1000, 3), 0.05)
+    exact = PreTanhNormal(loc, scale)
+    u = exact.sample()
+    assert torch.equal(exact.log_prob(u), exact.log_prob(u.clone()))
+    squashed = TanhNormal(loc, scale, low=-1.0, high=1.0)
+    moved = PreTanhNormal(loc + 0.01, scale * 1.1)
+    moved_squashed = TanhNormal(loc + 0.01, scale * 1.1, low=-1.0, high=1.0)
+    # TanhNormal's own density of the same draw, had it kept u (its base is over u).
+    assert_close(exact.log_prob(u), squashed.base_dist.log_prob(u))
+    assert_close(
+        moved.log_prob(u) - exact.log_prob(u),
+        moved_squashed.base_dist.log_prob(u) - squashed.base_dist.log_prob(u),
+    )
+    # The squashed action's entropy: the Normal's less the expected log-Jacobian; far
+    # into saturation it is very negative, near 0 it is the Normal's less ~log 1.
+    saturated = PreTanhNormal(loc, scale).entropy()
+    centred = PreTanhNormal(torch.zeros(1000, 3), torch.full((1000, 3), 0.05)).entropy()
+    normal = torch.distributions.Normal(0.0, 0.05).entropy() * 3
+    assert (saturated < normal - 50).all()
+    assert_close(centred.mean(), normal, atol=0.02, rtol=0)
 
 
 @pytest.mark.parametrize("action_dist", ACTION_DISTRIBUTIONS)
@@ -142,7 +173,7 @@ def test_an_update_with_zero_learning_rate_has_zero_kl(action_dist: str) -> None
         optimizer.zero_grad()
         sum(out[key] for key in LOSS_KEYS).backward()
         optimizer.step()
-        if action_dist == "gaussian":
+        if action_dist in ("gaussian", "tanh_normal_exact"):
             assert out["kl_approx"].item() == 0.0
         else:  # atanh's rounding (see above)
             assert abs(out["kl_approx"].item()) < 1e-6
