@@ -28,6 +28,7 @@ from omegaconf import OmegaConf
 
 from benchmarks.reporting.summary import code_version
 from rlhc.config.train_schema import compose_config
+from rlhc.envs.keys import ACTION
 from rlhc.objectives import rescore_log_prob
 from rlhc.training.trainer import Trainer
 
@@ -69,7 +70,8 @@ def measure(run_dir: Path, rescored: bool) -> dict[str, Any]:
                 ((ratio < 1 - epsilon) | (ratio > 1 + epsilon)).float().mean()
             ),
             "kl_approx": float(((ratio - 1) - log_ratio).mean()),
-            "share_near_bound": float((batch[keys.action].abs() > 0.999).float().mean()),
+            # The game's action (tanh_normal_exact scores its pre-tanh draw instead).
+            "share_near_bound": float((batch[group, ACTION].abs() > 0.999).float().mean()),
         }
     return result
 
