@@ -10,7 +10,8 @@
 
 Every actor reads ``(g, "observation")``, or ``(g, "manager_observation")`` with
 ``cfg.actor_view="manager"`` (:func:`actor_observation_key`), and writes ``(g, "action")``
-and its log-probability ``(g, "action_log_prob")``. With
+and its log-probability ``(g, "action_log_prob")`` (``tanh_normal_exact``: that of its
+pre-tanh draw, ``(g, "action_pretanh_log_prob")``, the one the loss scores). With
 ``cfg.shared_trunk`` a discrete actor is the policy half of
 :func:`~rlhc.modules.shared.make_actor_value` instead (same keys, other parameter names).
 """
