@@ -13,8 +13,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import torch
-from torchrl.envs import Compose, EnvBase, RewardSum, TransformedEnv, VecNormV2
+from torchrl.envs import Compose, EnvBase, RewardSum, TransformedEnv
 
+from rlhc.building.normalisation import SafeVecNorm
 from rlhc.building.shaping import PotentialShaping, game_potential
 from rlhc.config.train_schema import TrainConfig
 from rlhc.envs import make_env, make_game
@@ -193,7 +194,8 @@ def with_training_transforms(cfg: TrainConfig, base: EnvBase) -> TransformedEnv:
         keys = [(g, key) for g in groups for key in (OBSERVATION, MANAGER_OBSERVATION)]
         # Statistics are shared by the worlds (reduce_batch_dims) and kept per agent slot;
         # with mirrored observations and a shared policy both teams' slots converge alike.
-        transforms.append(VecNormV2(in_keys=keys, decay=0.99999, reduce_batch_dims=True))
+        # VecNormV2 whose variance cannot go negative (a feature that stops varying).
+        transforms.append(SafeVecNorm(in_keys=keys, decay=0.99999, reduce_batch_dims=True))
     with warnings.catch_warnings():
         # VecNormV2 calls batched containers "experimental": the batched path is the one
         # this project runs and tests (tests/test_train.py, tests/evaluation).
