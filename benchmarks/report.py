@@ -92,7 +92,7 @@ def main(argv: Sequence[str] | None = None) -> None:
 
     import torch
 
-    warnings.filterwarnings("ignore", message="Support of VecNormV2")
+    warnings.filterwarnings("ignore", message="Support of (Safe)?VecNorm")
     torch.set_num_threads(1)
     args = parse_args(argv)
     previous = args.out.read_text() if args.out.is_file() else None

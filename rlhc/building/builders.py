@@ -197,9 +197,9 @@ def with_training_transforms(cfg: TrainConfig, base: EnvBase) -> TransformedEnv:
         # VecNormV2 whose variance cannot go negative (a feature that stops varying).
         transforms.append(SafeVecNorm(in_keys=keys, decay=0.99999, reduce_batch_dims=True))
     with warnings.catch_warnings():
-        # VecNormV2 calls batched containers "experimental": the batched path is the one
+        # VecNormV2 (and SafeVecNorm) call batched containers "experimental": the batched path is the one
         # this project runs and tests (tests/test_train.py, tests/evaluation).
-        warnings.filterwarnings("ignore", "Support of VecNormV2", UserWarning)
+        warnings.filterwarnings("ignore", "Support of (Safe)?VecNorm", UserWarning)
         return TransformedEnv(base, Compose(*transforms))
 
 
