@@ -20,12 +20,8 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
 import json
-import shlex
-import sys
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -33,7 +29,7 @@ import torch
 from tensordict import TensorDictBase
 from tensordict.nn import InteractionType, set_interaction_type
 
-from benchmarks.reporting.summary import code_version
+from benchmarks.tennis_play import team_arguments, write_results
 from rlhc.envs import make_env
 from rlhc.envs.keys import ACTION, INFO, NEXT, OBSERVATION
 from rlhc.envs.tennis.observations import LENGTH_SCALE
@@ -119,12 +115,7 @@ def misses(rollout: TensorDictBase) -> dict[str, Any]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("teams", nargs="+", help="run directories, checkpoints or team files")
-    parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
-    parser.add_argument("--worlds", type=int, default=16)
-    parser.add_argument("--decisions", type=int, default=600)
-    parser.add_argument("--seed", type=int, default=0)
+    parser = team_arguments(__doc__.split("\n")[0], worlds=16, decisions=600)
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
     teams = {}
@@ -136,10 +127,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         result["frames"] = int(state.get("frames", 0))
         teams[team] = result
         print(team, json.dumps(result), flush=True)
-    command = shlex.join(["python", "-m", "benchmarks.tennis_misses", *sys.argv[1:]])
-    payload = {"command": command, "code_version": code_version(), "teams": teams}
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(payload, indent=2) + "\n")
+    write_results(args.out, "benchmarks.tennis_misses", teams)
     return 0
 
 

@@ -92,14 +92,27 @@ HEADER = (
 )
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def team_arguments(description: str, worlds: int, decisions: int) -> argparse.ArgumentParser:
+    """The command line of a script that measures tennis teams in self-play."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("teams", nargs="+", help="run directories, checkpoints or team files")
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
-    parser.add_argument("--worlds", type=int, default=32)
-    parser.add_argument("--decisions", type=int, default=1000)
+    parser.add_argument("--worlds", type=int, default=worlds)
+    parser.add_argument("--decisions", type=int, default=decisions)
     parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args(argv)
+    return parser
+
+
+def write_results(out: Path, module: str, teams: dict[str, Any], **extra: Any) -> None:
+    """``out`` as JSON: the command that rebuilds it, the code version, ``extra``, ``teams``."""
+    command = shlex.join(["python", "-m", module, *sys.argv[1:]])
+    payload = {"command": command, "code_version": code_version(), **extra, "teams": teams}
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(payload, indent=2) + "\n")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = team_arguments(__doc__.split("\n")[0], worlds=32, decisions=1000).parse_args(argv)
     torch.set_num_threads(1)
     teams: dict[str, Any] = {}
     for team in args.teams:
@@ -112,16 +125,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         result["source"] = Path(state["path"]).name
         teams[team] = result
         print(row(team, result), flush=True)
-    command = shlex.join(["python", "-m", "benchmarks.tennis_play", *sys.argv[1:]])
     reference = scripted_tracking()
-    payload = {
-        "command": command,
-        "code_version": code_version(),
-        "scripted_tracking": reference,
-        "teams": teams,
-    }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(payload, indent=2) + "\n")
+    write_results(args.out, "benchmarks.tennis_play", teams, scripted_tracking=reference)
     print(HEADER)
     for team, result in teams.items():
         print(row(team, result))
