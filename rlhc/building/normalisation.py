@@ -44,5 +44,6 @@ class SafeVecNorm(VecNormV2):
 
     def _get_loc_scale(self, loc_only: bool = False) -> tuple:
         if self._loc is not None and self._var is not None:
+            # In place: the running second moment is never truly below the squared mean.
             self._var.update_(_second_moment_at_least_squared_mean(self._var, self._loc))
         return super()._get_loc_scale(loc_only)

@@ -5,9 +5,10 @@ each group's actor weights and the state of the training env's transforms. When
 ``algo.normalize_observations`` was on, that state holds a TorchRL ``VecNormV2`` over
 ``(g, "observation")`` and ``(g, "manager_observation")``; the actors were trained on
 normalised observations, so a restored policy must see its inputs (whichever of the two
-its actor reads, ``model.actor_view``) through the *same* statistics, frozen. The training env is rebuilt with
-:func:`rlhc.building.builders.make_training_env` (one world) so that the normaliser's
-settings (decay, eps, keys) come from the one place that defines them.
+its actor reads, ``model.actor_view``) through the *same* statistics, frozen. The
+training env is rebuilt with :func:`rlhc.building.builders.make_training_env` (one world)
+so that the normaliser's settings (decay, eps, keys) come from the one place that
+defines them.
 """
 
 from __future__ import annotations
