@@ -14,7 +14,7 @@ def group_mlp(n_inputs: int, n_outputs: int, n_agents: int, cfg: NetworkConfig) 
     share a network, each agent seeing the world in its own team's frame);
     ``centralized=False`` keeps each agent's input its own. Batching the agents into
     one matmul is also what makes a PPO update about twice as fast as a loop over
-    agents on the 2-core development machine.
+    agents on a 2-core CPU.
 
     Args:
         n_inputs: per-agent input size.
