@@ -42,3 +42,40 @@ def test_the_training_env_normalises_with_it() -> None:
     env = make_training_env(load_smoke("env=tennis"), num_envs=2, seed=0)
     assert any(isinstance(t, SafeVecNorm) for t in env.transform)
     env.close()
+
+
+def _observations(step: int, batch: int = 6) -> TensorDict:
+    """A batch of two nested observation keys, with a feature that stops varying."""
+    generator = torch.Generator().manual_seed(step)
+    worker = torch.randn(batch, 4, 5, generator=generator) * 3 + 1
+    worker[..., 0] = 0.1167  # constant: its variance rounds around 0
+    manager = torch.rand(batch, 4, 2, generator=generator)
+    return TensorDict({"g": {"obs": worker, "manager_obs": manager}}, [batch])
+
+
+def test_the_fast_path_equals_torchrl_to_the_bit_where_torchrl_is_finite() -> None:
+    keys = [("g", "obs"), ("g", "manager_obs")]
+    fast = SafeVecNorm(in_keys=keys, decay=0.99999, reduce_batch_dims=True)
+    plain = VecNormV2(in_keys=keys, decay=0.99999, reduce_batch_dims=True)
+    for step in range(40):
+        # Steps update and normalise every key; partial resets (missing tolerance) may
+        # carry only some of them.
+        data = _observations(step)
+        partial = step % 3 == 2
+        if partial:
+            data = data.exclude(("g", "manager_obs"))
+        assert fast._per_key(data)  # the plain-tensor path, not VecNormV2's own
+        # A reset normalises whichever keys it carries (VecNormV2's missing tolerance).
+        call = "_reset" if partial else "_step"
+        outputs = [getattr(norm, call)(data.clone(), data.clone()) for norm in (fast, plain)]
+        for key in outputs[1].keys(True, True):
+            ours, theirs = outputs[0][key], outputs[1][key]
+            finite = torch.isfinite(theirs)
+            assert torch.equal(ours[finite], theirs[finite]), (step, key)
+            # Where TorchRL's scale is NaN (the constant feature), ours is 0.
+            assert torch.isfinite(ours).all()
+    for name in ("_loc", "_count"):
+        assert (getattr(fast, name) == getattr(plain, name)).all()
+    # The stored second moment differs only where it was raised to the squared mean.
+    raised = fast._var != plain._var
+    assert not raised[("g", "manager_obs")].any()
