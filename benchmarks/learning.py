@@ -177,22 +177,6 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
             "algo.epochs=6",
             "model.actor_view=manager",
         ),
-        # probe_gaussian_view in a league: 30 % of the courts against the scripted team,
-        # 20 % against past selves. The teams that rally with themselves lose to the
-        # scripted team (probe_mlagents_lr_epochs: 11.4 hits per point with itself, mode
-        # actions, 0 of 100 matches); the scripted team returns balls they must learn to
-        # play, as an opponent rather than as a reward.
-        "probe_gaussian_view_league": (
-            *GAUSSIAN_POLICY,
-            *PROBE_SCHEDULE,
-            "algo.lr=1e-3",
-            "algo.epochs=6",
-            "model.actor_view=manager",
-            "league=mixed",
-            "league.snapshot=0.2",
-            "league.scripted=0.3",
-            "league.random=0",
-        ),
         # probe_mlagents_lr_epochs (11.4 hits per point with itself, mode actions, but 13.6 %
         # of points against the scripted team: a rally with itself) in a league where 30 %
         # of the courts play the scripted team and 20 % past selves, its actor reading the
