@@ -83,9 +83,7 @@ class SafeVecNorm(VecNormV2):
 
     def _norm(self, data: Any, loc: Any, var: Any, count: Any) -> Any:
         if not (isinstance(data, TensorDictBase) and self._per_key(data)):
-            return super()._norm(
-                data, loc, _second_moment_at_least_squared_mean(var, loc), count
-            )
+            return super()._norm(data, loc, _second_moment_at_least_squared_mean(var, loc), count)
         log_decay = math.log(self.decay)
 
         def normalise(key: NestedKey, value: torch.Tensor) -> torch.Tensor:
