@@ -194,6 +194,23 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
             "league.scripted=0.3",
             "league.random=0",
         ),
+        # probe_mlagents_league_view at Table 3's lr (3e-4) and epochs (3), kept constant:
+        # its seed 0 rallied 13.5 hits per point with itself at 1.26 M (38 with mode
+        # actions) and took 22-36 % of the points of its courts against the scripted team,
+        # then lost its serve within 0.25 M (untouched serves 0.02 -> 0.37 per point) while
+        # every update moved the policy to the clip range's edge (KL 0.02-0.03, clip
+        # fraction 0.23-0.29, scale 0.04 on the move).
+        "probe_mlagents_league_view_lr": (
+            *GAUSSIAN_POLICY,
+            "model.pre_clip_range=3.0",
+            *PROBE_SCHEDULE,
+            "algo.entropy_coef=0.0016667",
+            "model.actor_view=manager",
+            "league=mixed",
+            "league.snapshot=0.2",
+            "league.scripted=0.3",
+            "league.random=0",
+        ),
         # long with the pre-tanh mean bounded (model.loc_bound): long seed 0 keeps a KL of
         # 0.037 per update at lr 2e-8 at the end (TanhNormal's log-probability of a
         # saturated mean, rebuilt through atanh) and collapses near 8 M.
