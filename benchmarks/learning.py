@@ -211,6 +211,25 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
             "league.scripted=0.3",
             "league.random=0",
         ),
+        # probe_mlagents_league_view with its learning rate adapted to the KL per update
+        # (algo.target_kl 0.01: the rate, at most 1e-3, falls by 1.5 after an update
+        # whose KL exceeded 0.02 and rises after one under 0.005), its 6 epochs kept: the
+        # fast start of lr 1e-3 (a rally with itself by 1 M on seeds 0 and 1), the steps
+        # of a smaller rate once the policy is narrow.
+        "probe_mlagents_league_view_adaptive": (
+            *GAUSSIAN_POLICY,
+            "model.pre_clip_range=3.0",
+            *PROBE_SCHEDULE,
+            "algo.lr=1e-3",
+            "algo.target_kl=0.01",
+            "algo.epochs=6",
+            "algo.entropy_coef=0.0016667",
+            "model.actor_view=manager",
+            "league=mixed",
+            "league.snapshot=0.2",
+            "league.scripted=0.3",
+            "league.random=0",
+        ),
         # long with the pre-tanh mean bounded (model.loc_bound): long seed 0 keeps a KL of
         # 0.037 per update at lr 2e-8 at the end (TanhNormal's log-probability of a
         # saturated mean, rebuilt through atanh) and collapses near 8 M.

@@ -16,7 +16,7 @@ from tensordict import TensorDict
 from tensordict.nn import TensorDictModule
 
 from rlhc.building.builders import Layout
-from rlhc.config.train_schema import PPOConfig, schedules
+from rlhc.config.train_schema import LR_ADAPTATION_FACTOR, PPOConfig, adapted_lr, schedules
 from rlhc.config.validation import validate
 from rlhc.errors import ConfigError
 from rlhc.objectives import HierarchicalValueEstimator, cut_trajectories
@@ -92,6 +92,9 @@ def test_one_update_takes_exactly_the_documented_world_decisions(
         (("algo.clip_epsilon=-1",), "algo.clip_epsilon=-1"),
         (("algo.max_importance_ratio=1.1",), "algo.max_importance_ratio=1.1"),
         (("model.actor_view=critic",), "model.actor_view='critic'"),
+        (("algo.anneal_lr=false", "algo.target_kl=0"), "algo.target_kl=0"),
+        (("algo.target_kl=0.01",), "algo.anneal_lr=true"),  # two schedules at once
+        (("algo.anneal_lr=false", "algo.target_kl=0.01", "algo.min_lr=1"), "algo.min_lr=1"),
     ],
 )
 def test_bad_settings_fail_before_training_naming_the_key(
@@ -218,6 +221,40 @@ def test_the_trainer_applies_the_schedules_to_the_losses(tmp_path: Path) -> None
     loss = trainer.losses["racket"]
     assert float(loss.entropy_coeff) == pytest.approx(beta)
     assert float(loss.clip_epsilon) == pytest.approx(epsilon)
+
+
+def test_the_adapted_lr_moves_by_the_factor_outside_the_band_and_stays_in_bounds() -> None:
+    algo = PPOConfig(lr=1e-3, target_kl=0.02, min_lr=1e-5, anneal_lr=False)
+    factor = LR_ADAPTATION_FACTOR
+    assert adapted_lr(1e-4, 0.041, algo) == pytest.approx(1e-4 / factor)
+    assert adapted_lr(1e-4, 0.009, algo) == pytest.approx(1e-4 * factor)
+    for inside in (0.01, 0.02, 0.04, math.nan):  # the band's edges included; NaN: kept
+        assert adapted_lr(1e-4, inside, algo) == 1e-4
+    assert adapted_lr(1e-3, 0.0, algo) == 1e-3  # never above algo.lr
+    assert adapted_lr(1.2e-5, 1.0, algo) == 1e-5  # never below algo.min_lr
+    with pytest.raises(ValueError, match="target_kl"):
+        adapted_lr(1e-3, 0.1, PPOConfig(lr=1e-3))
+
+
+def test_each_update_adapts_the_lr_to_its_kl_and_a_resume_keeps_it(tmp_path: Path) -> None:
+    overrides = ("env=tennis", "experiment=smoke", "algo.anneal_lr=false", "algo.lr=1e-2")
+    # A target inside the spread of a smoke update's KL, so that the rate moves both ways.
+    adaptive = ("algo.target_kl=0.004", "algo.min_lr=1e-5")
+    cfg = load(*overrides, *adaptive, "algo.max_steps=256", "checkpoint_freq=256")
+    trainer = Trainer(cfg, tmp_path)
+    batch = trainer.collect_batch()
+    lr = 1e-2
+    for _ in range(6):
+        kl = trainer.update(batch.clone())["racket/kl_approx"]
+        lr = adapted_lr(lr, kl, cfg.algo)
+        assert trainer.optimizer.param_groups[0]["lr"] == pytest.approx(lr, rel=1e-5)
+    assert lr < 1e-2  # the policy moved beyond the target at least once
+    trainer.train()
+    trained_lr = trainer.optimizer.param_groups[0]["lr"]
+    resumed = Trainer(
+        load(*overrides, *adaptive, "algo.max_steps=512", f"resume={tmp_path}"), tmp_path
+    )
+    assert resumed.optimizer.param_groups[0]["lr"] == trained_lr  # in Adam's state
 
 
 @pytest.mark.parametrize(

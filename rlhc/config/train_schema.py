@@ -118,6 +118,13 @@ class PPOConfig:
             one experience). 100, as the PPO-EWMA reference implementation.
         normalize_observations: running mean/std normalisation of both observations
             (the paper's ``normalize``).
+        target_kl: ``null`` (off), or the KL per update that the learning rate adapts to
+            (:func:`adapted_lr`, the "adaptive" schedule of rsl_rl and rl_games): after
+            each update the rate is divided by 1.5 if the update's mean ``kl_approx``
+            exceeded twice this, multiplied by 1.5 if it stayed under half, and kept
+            within ``[min_lr, lr]``; it starts at ``lr`` and is kept in the checkpoint
+            (Adam's state). Replaces the linear decay (``anneal_lr`` must be false).
+        min_lr: the adapted learning rate's floor (``target_kl`` only).
     """
 
     max_steps: int = measured_in("world-decisions", MISSING)
@@ -142,6 +149,12 @@ class PPOConfig:
     rescore_log_prob: bool = False
     max_importance_ratio: float | None = 100.0
     normalize_observations: bool = MISSING
+    target_kl: float | None = None
+    min_lr: float = 1e-6
+
+
+#: The factor by which :func:`adapted_lr` moves the learning rate (rsl_rl, rl_games).
+LR_ADAPTATION_FACTOR = 1.5
 
 
 def schedules(algo: PPOConfig, frames: int) -> tuple[float, float, float]:
@@ -169,6 +182,30 @@ def schedules(algo: PPOConfig, frames: int) -> tuple[float, float, float]:
     if algo.anneal_clip_epsilon:
         clip_epsilon += (algo.final_clip_epsilon - clip_epsilon) * progress
     return lr, entropy_coef, clip_epsilon
+
+
+def adapted_lr(lr: float, kl: float, algo: PPOConfig) -> float:
+    """The learning rate after an update whose mean KL was ``kl`` (``algo.target_kl``).
+
+    Down by :data:`LR_ADAPTATION_FACTOR` above twice the target, up by it below half of
+    it, unchanged in between (and on a NaN KL); always within ``[algo.min_lr, algo.lr]``.
+
+    Examples:
+        >>> algo = PPOConfig(lr=1e-3, target_kl=0.01, min_lr=1e-6)
+        >>> round(adapted_lr(1e-3, 0.05, algo), 10)  # above twice the target: down
+        0.0006666667
+        >>> round(adapted_lr(1e-4, 0.001, algo), 10)  # under half of it: up
+        0.00015
+        >>> adapted_lr(1e-4, 0.01, algo), adapted_lr(1e-3, 0.0, algo)  # kept; capped at lr
+        (0.0001, 0.001)
+    """
+    if algo.target_kl is None:
+        raise ValueError("adapted_lr needs algo.target_kl (it is null: the rate is not adapted)")
+    if kl > 2.0 * algo.target_kl:
+        lr /= LR_ADAPTATION_FACTOR
+    elif kl < algo.target_kl / 2.0:
+        lr *= LR_ADAPTATION_FACTOR
+    return min(algo.lr, max(algo.min_lr, lr))
 
 
 @dataclass

@@ -120,6 +120,21 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
             raise ConfigError(
                 f"{name}={number}; allowed: a finite number in {bracket}{low}, {high})"
             )
+    target_kl = cfg.algo.target_kl
+    if target_kl is not None:
+        if not (math.isfinite(target_kl) and target_kl > 0):
+            raise ConfigError(
+                f"algo.target_kl={target_kl}; allowed: null (off) or a finite number > 0"
+            )
+        if cfg.algo.anneal_lr:
+            raise ConfigError(
+                f"algo.target_kl={target_kl} with algo.anneal_lr=true; allowed: one "
+                "learning-rate schedule (set algo.anneal_lr=false to adapt the rate to the KL)"
+            )
+        if not (math.isfinite(cfg.algo.min_lr) and 0.0 < cfg.algo.min_lr <= cfg.algo.lr):
+            raise ConfigError(
+                f"algo.min_lr={cfg.algo.min_lr}; allowed: a number in (0, algo.lr = {cfg.algo.lr}]"
+            )
     cap = cfg.algo.max_importance_ratio
     if cap is not None and not (math.isfinite(cap) and cap > 1.0 + cfg.algo.clip_epsilon):
         raise ConfigError(

@@ -40,7 +40,7 @@ from rlhc.building.builders import (
     network_config,
     trainable_parameters,
 )
-from rlhc.config.train_schema import TrainConfig, schedules
+from rlhc.config.train_schema import TrainConfig, adapted_lr, schedules
 from rlhc.config.validation import validate
 from rlhc.envs.keys import MANAGER_SELECTED, MANAGER_VALUE, STATE_VALUE, WORKER_VALUE
 from rlhc.modules import make_actor
@@ -292,6 +292,8 @@ class Trainer:
                 grad_norm = torch.nn.utils.clip_grad_norm_(self.parameters, algo.max_grad_norm)
                 stats["grad_norm"].append(grad_norm.detach())
                 self.optimizer.step()
+        if algo.target_kl is not None:
+            self._adapt_lr(stats)
         return {
             name: float(np.mean(torch.stack(values).tolist())) for name, values in stats.items()
         }
@@ -407,12 +409,24 @@ class Trainer:
 
     def _set_schedules(self) -> None:
         lr, entropy_coef, clip_epsilon = schedules(self.cfg.algo, self.frames)
-        for group in self.optimizer.param_groups:
-            group["lr"] = lr
+        if self.cfg.algo.target_kl is None:  # else the rate is adapted after each update
+            self._set_lr(lr)
         for loss in self.losses.values():
             # Schedulable buffers of TorchRL's PPO losses: assignment updates them in place.
             loss.entropy_coeff = entropy_coef
             loss.clip_epsilon = clip_epsilon
+
+    def _set_lr(self, lr: float) -> None:
+        for group in self.optimizer.param_groups:
+            group["lr"] = lr
+
+    def _adapt_lr(self, stats: dict[str, list[torch.Tensor]]) -> None:
+        # The update's mean KL over groups and minibatches, the same on every process
+        # (data-parallel: each averaged its share), read once per update.
+        kl = torch.stack([torch.stack(stats[f"{g}/kl_approx"]).mean() for g in self.groups])
+        kl = self.strategy.reduce_sum(kl.mean().detach().clone()) / self.strategy.shards
+        lr = self.optimizer.param_groups[0]["lr"]
+        self._set_lr(adapted_lr(lr, float(kl), self.cfg.algo))
 
     def _crossed(self, previous: int, every: int) -> bool:
         return previous // every != self.frames // every
