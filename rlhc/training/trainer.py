@@ -263,7 +263,8 @@ class Trainer:
         At the schedules of the current frame count: cut the trajectories at the time
         horizon, estimate fused values and advantages per group, then ``algo.epochs``
         passes of shuffled minibatches (as ML-Agents 0.5: whole minibatches only, the
-        remainder left out), each one optimiser step.
+        remainder left out), each one optimiser step; with ``algo.target_kl``, the
+        learning rate is then adapted to the update's mean KL.
 
         Returns:
             The update's statistics, each a mean over its minibatches: per group the
