@@ -4,7 +4,8 @@ Every rank holds the same minibatch (rank 0's, broadcast). Each computes the gra
 single process computes on the whole minibatch, then the data-parallel gradient from its
 half plus the all-reduce, then takes one optimiser step. Rank 0 writes, as JSON, the
 largest gradient difference on any rank and the largest parameter difference between
-the ranks after the step.
+the ranks after the step; then each rank runs a whole update on its own rollout and
+rank 0 writes every rank's learning rate after it and its update's KL.
 
 Usage: ``torchrun --standalone --nproc_per_node=2 tests/distributed_check.py OUT [overrides…]``
 """
@@ -64,6 +65,14 @@ def main(out: Path, overrides: list[str]) -> None:
         everyone = gather(flat)
         parameter_error = max((everyone[0] - other).abs().max().item() for other in everyone)
         errors = gather(gradient_error)
+
+        # A whole update on each rank's own rollout (their KLs differ): with
+        # algo.target_kl the rate adapted to it must stay the same on every rank.
+        with torch.no_grad():
+            own = trainer.env.rollout(32, trainer.collection_policy, break_when_any_done=False)
+        kl = trainer.update(own)[f"{trainer.groups[0]}/kl_approx"]
+        rates = gather(trainer.optimizer.param_groups[0]["lr"])
+        local_kls = gather(kl)
     if rank == 0:
         out.write_text(
             json.dumps(
@@ -71,6 +80,8 @@ def main(out: Path, overrides: list[str]) -> None:
                     "gradient_error": max(errors),
                     "gradient_scale": gradient_scale,
                     "parameter_error": parameter_error,
+                    "learning_rates": rates,
+                    "update_kls": local_kls,
                     "processes": size,
                     "weights": minibatch.numel(),
                 }

@@ -52,8 +52,17 @@ def metrics(run_dir: Path) -> list[dict[str, str]]:
         # League worlds: the opponents' experiences weigh 0, so each rank's share of the
         # weight differs and the denominator must be the whole minibatch's.
         ["env=soccer", "league=mixed"],
+        # The learning rate adapted to the KL: one rate on every rank, though their own
+        # updates' KLs differ (the rate follows their mean).
+        [
+            "env=tennis",
+            "algo.entropy_coef=0",
+            "algo.anneal_lr=false",
+            "algo.lr=1e-2",
+            "algo.target_kl=0.001",
+        ],
     ],
-    ids=["tennis", "soccer-league"],
+    ids=["tennis", "soccer-league", "tennis-target-kl"],
 )
 def test_data_parallel_gradient_equals_one_process(tmp_path: Path, overrides: list[str]) -> None:
     out = tmp_path / "result.json"
@@ -63,6 +72,11 @@ def test_data_parallel_gradient_equals_one_process(tmp_path: Path, overrides: li
     assert result["gradient_scale"] > 1e-3  # a real gradient, not zeros on both sides
     assert result["gradient_error"] <= 1e-6
     assert result["parameter_error"] == 0.0  # both ranks hold the same weights
+    rates = result["learning_rates"]
+    assert len(set(rates)) == 1  # one learning rate, whatever the ranks' own KLs
+    if "algo.target_kl=0.001" in overrides:
+        assert len(set(result["update_kls"])) == 2  # the ranks' KLs did differ
+        assert rates[0] != load_smoke(*overrides).algo.lr  # and the rate was adapted
 
 
 def test_data_parallel_run_writes_one_run_directory(tmp_path: Path) -> None:
