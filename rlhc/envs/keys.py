@@ -38,6 +38,9 @@ STEP_COUNT = "step_count"
 SCORING_TEAM = "scoring_team"
 #: Sub-dict of the game's published events (e.g. ``("info", "hits_over_net")``).
 INFO = "info"
+#: Prefix of a published event saying how a point ended (tennis: ``ended_serve_missed``,
+#: ``ended_missed``, ...; 1 on the decision that ended the point that way).
+ENDED_PREFIX = "ended_"
 
 # --- written by the training transforms, per group ---------------------------------------
 #: The return of the episode so far ``[*B, n_g, 1]`` (TorchRL's ``RewardSum``, in

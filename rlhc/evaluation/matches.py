@@ -20,7 +20,9 @@ rally scores nothing and a new serve follows), within 5 rallies of ``max_cycles`
 policy's view, each rate with its 95% Wilson interval (:func:`~rlhc.evaluation.stats.wilson_interval`),
 the share of all points the home side won (Wilson interval over points), the mean
 points of both sides, the mean match length, and the game's per-team events per point
-(tennis: ``hits_over_net_by_team``, the hits over the net of each side per point).
+(tennis: ``hits_over_net_by_team``, the hits over the net of each side per point; and,
+for a game that says how a point ended, ``lost_<how>``, the share of all points that
+each side lost that way, e.g. ``lost_serve_missed``).
 """
 
 from __future__ import annotations
@@ -36,7 +38,17 @@ from tensordict import TensorDictBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
 from rlhc.envs import make_env
-from rlhc.envs.keys import ACTION, DONE, INFO, NEXT, RESET, SCORING_TEAM, SCRIPTED, TEAM
+from rlhc.envs.keys import (
+    ACTION,
+    DONE,
+    ENDED_PREFIX,
+    INFO,
+    NEXT,
+    RESET,
+    SCORING_TEAM,
+    SCRIPTED,
+    TEAM,
+)
 from rlhc.envs.registry import game_spec
 from rlhc.envs.torchrl_adapter import BatchedGameEnv
 from rlhc.evaluation.opponents import TeamPolicy, make_team_policy, player_options
@@ -238,8 +250,14 @@ def play_matches(
     # Per-team events of the game (e.g. tennis hits over the net), by team while
     # playing and by side (home, away) once recorded.
     team_events = [key for key, shape in env.game.published_info.items() if shape == (2,)]
-    event_counts = {key: np.zeros((k, 2)) for key in team_events}
-    record_events = {key: np.zeros((matches, 2)) for key in team_events}
+    # How points ended (the game's ``ended_<how>`` flags), charged to the side that lost.
+    endings = {
+        key: f"lost_{key.removeprefix(ENDED_PREFIX)}"
+        for key, shape in env.game.published_info.items()
+        if key.startswith(ENDED_PREFIX) and shape == ()
+    }
+    event_counts = {key: np.zeros((k, 2)) for key in [*team_events, *endings.values()]}
+    record_events = {key: np.zeros((matches, 2)) for key in event_counts}
     next_match = k
     exploration = ExplorationType.DETERMINISTIC if deterministic else ExplorationType.RANDOM
     tensordict = env.reset()
@@ -252,8 +270,12 @@ def play_matches(
             tensordict = env.step(tensordict)
             scoring = tensordict[NEXT, SCORING_TEAM].view(k).numpy()
             done = tensordict[NEXT, DONE].view(k).numpy()
-            for key, counts in event_counts.items():
-                counts += tensordict[NEXT, INFO, key].view(k, 2).numpy()
+            for key in team_events:
+                event_counts[key] += tensordict[NEXT, INFO, key].view(k, 2).numpy()
+            decided = np.flatnonzero(scoring >= 0)
+            for key, lost in endings.items():
+                ended = tensordict[NEXT, INFO, key].view(k).numpy()[decided]
+                event_counts[lost][decided, 1 - scoring[decided]] += ended
             tensordict = step_mdp(tensordict)
             for team in (0, 1):
                 points[:, team] += scoring == team

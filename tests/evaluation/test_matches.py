@@ -198,3 +198,25 @@ def test_tennis_summaries_count_hits_over_the_net_per_point_by_side() -> None:
     low, high = one_sided["points_won_rate_ci"]
     assert one_sided["points_won_rate"] > 0.8
     assert low <= one_sided["points_won_rate"] <= high and low < 1.0
+
+
+def test_tennis_summaries_charge_each_lost_point_to_its_ending() -> None:
+    from rlhc.envs.tennis.rules import POINT_ENDINGS
+    from rlhc.evaluation.matches import evaluate_against
+    from rlhc.evaluation.opponents import make_team_policy
+
+    torch.manual_seed(0)
+    env = make_env("tennis", num_envs=4, seed=0)
+    summary = evaluate_against(make_team_policy("scripted", env), "random", env, 4)
+    lost = {
+        side: {how: summary[f"lost_{how}_per_point"][side] for how in POINT_ENDINGS}
+        for side in ("home", "away")
+    }
+    # Every decided point is lost by one side in exactly one way (truncated rallies
+    # score nothing and are charged to no one).
+    won = summary["points_won_rate"]
+    assert sum(lost["away"].values()) == pytest.approx(won)
+    assert sum(lost["home"].values()) == pytest.approx(1.0 - won)
+    # The random team serves into nothing and lets the scripted team's shots drop.
+    assert lost["away"]["serve_missed"] + lost["away"]["missed"] > 0.5
+    assert lost["home"]["serve_missed"] < 0.05

@@ -31,6 +31,7 @@ from rlhc.envs.base import (
     GroupObservation,
     GroupSpec,
 )
+from rlhc.envs.keys import ENDED_PREFIX
 from rlhc.envs.tennis.control import DECISION_INTERVAL, drive_rackets
 from rlhc.envs.tennis.observations import (
     LENGTH_SCALE,
@@ -82,7 +83,7 @@ class TennisGame(BatchedGame):
     published_info: ClassVar[dict[str, tuple[int, ...]]] = {
         "hits_over_net": (),
         "hits_over_net_by_team": (2,),
-        **{f"ended_{how}": () for how in POINT_ENDINGS},
+        **{f"{ENDED_PREFIX}{how}": () for how in POINT_ENDINGS},
     }
     metadata: ClassVar[dict[str, object]] = {"render_modes": ["rgb_array"], "render_fps": 25}
 
@@ -202,7 +203,7 @@ class TennisGame(BatchedGame):
                 "hits_over_net": verdict.over_net,
                 "hits_over_net_by_team": verdict.over_net_by_team,
                 **{
-                    f"ended_{how}": verdict.ended_by == code
+                    f"{ENDED_PREFIX}{how}": verdict.ended_by == code
                     for code, how in enumerate(POINT_ENDINGS, start=1)
                 },
             },
