@@ -230,6 +230,29 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
             "league.scripted=0.3",
             "league.random=0",
         ),
+        # probe_mlagents_league_view with ML-Agents 0.5's observation normaliser:
+        # cumulative statistics and normalised values clipped to [-5, 5]. Its
+        # probe_mlagents_league_view_lr seed 0 lost its rally and serve at 3.6 M from one
+        # update to the next at a KL of 0.006; the 3.5 M weights with the 3.75 M
+        # normaliser play 0.86 hits per point with themselves (32 % of points on untouched
+        # serves), with their own 6.5; the 3.75 M weights with the 3.5 M normaliser 4.3:
+        # the statistics' drift, not the update, broke it (the racket's height, scale
+        # 0.015, normalises to tens where a racket jumps).
+        "probe_mlagents_league_view_norm": (
+            *GAUSSIAN_POLICY,
+            "model.pre_clip_range=3.0",
+            *PROBE_SCHEDULE,
+            "algo.lr=1e-3",
+            "algo.epochs=6",
+            "algo.entropy_coef=0.0016667",
+            "model.actor_view=manager",
+            "league=mixed",
+            "league.snapshot=0.2",
+            "league.scripted=0.3",
+            "league.random=0",
+            "algo.observation_decay=1.0",
+            "algo.observation_clip=5.0",
+        ),
         # long with the pre-tanh mean bounded (model.loc_bound): long seed 0 keeps a KL of
         # 0.037 per update at lr 2e-8 at the end (TanhNormal's log-probability of a
         # saturated mean, rebuilt through atanh) and collapses near 8 M.

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import torch
 from configs import load_smoke
 from tensordict import TensorDict
@@ -53,10 +54,11 @@ def _observations(step: int, batch: int = 6) -> TensorDict:
     return TensorDict({"g": {"obs": worker, "manager_obs": manager}}, [batch])
 
 
-def test_the_fast_path_equals_torchrl_to_the_bit_where_torchrl_is_finite() -> None:
+@pytest.mark.parametrize("decay", [0.99999, 1.0])  # 1: cumulative averages
+def test_the_fast_path_equals_torchrl_to_the_bit_where_torchrl_is_finite(decay: float) -> None:
     keys = [("g", "obs"), ("g", "manager_obs")]
-    fast = SafeVecNorm(in_keys=keys, decay=0.99999, reduce_batch_dims=True)
-    plain = VecNormV2(in_keys=keys, decay=0.99999, reduce_batch_dims=True)
+    fast = SafeVecNorm(in_keys=keys, decay=decay, reduce_batch_dims=True)
+    plain = VecNormV2(in_keys=keys, decay=decay, reduce_batch_dims=True)
     for step in range(40):
         # Steps update and normalise every key; partial resets (missing tolerance) may
         # carry only some of them.
@@ -79,3 +81,35 @@ def test_the_fast_path_equals_torchrl_to_the_bit_where_torchrl_is_finite() -> No
     # The stored second moment differs only where it was raised to the squared mean.
     raised = fast._var != plain._var
     assert not raised[("g", "manager_obs")].any()
+
+
+@pytest.mark.parametrize("reduce_batch_dims", [True, False])  # fast path, VecNormV2's own
+def test_clip_bounds_the_normalised_values_and_changes_nothing_inside(
+    reduce_batch_dims: bool,
+) -> None:
+    keys = [("g", "obs"), ("g", "manager_obs")]
+    clipped = SafeVecNorm(
+        in_keys=keys, decay=0.99999, reduce_batch_dims=reduce_batch_dims, clip=1.5
+    )
+    free = SafeVecNorm(in_keys=keys, decay=0.99999, reduce_batch_dims=reduce_batch_dims)
+    for step in range(5):
+        data = _observations(step)
+        ours = clipped._step(data.clone(), data.clone())
+        reference = free._step(data.clone(), data.clone())
+        for key in keys:
+            assert ours[key].abs().max() <= 1.5
+            assert torch.equal(ours[key], reference[key].clamp(-1.5, 1.5))
+        if reduce_batch_dims:  # (per-element statistics normalise one batch to ~0)
+            assert (reference["g", "obs"].abs() > 1.5).any()  # the bound did bind
+    with pytest.raises(ValueError, match="clip=0"):
+        SafeVecNorm(in_keys=keys, clip=0)
+
+
+def test_the_training_env_takes_the_decay_and_clip_settings() -> None:
+    cfg = load_smoke("env=tennis", "algo.observation_decay=1.0", "algo.observation_clip=5")
+    env = make_training_env(cfg, num_envs=2, seed=0)
+    (norm,) = [t for t in env.transform if isinstance(t, SafeVecNorm)]
+    assert (norm.decay, norm.clip) == (1.0, 5.0)
+    rollout = env.rollout(20)
+    assert rollout["next", "racket", "observation"].abs().max() <= 5.0
+    env.close()

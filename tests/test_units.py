@@ -95,6 +95,8 @@ def test_one_update_takes_exactly_the_documented_world_decisions(
         (("algo.anneal_lr=false", "algo.target_kl=0"), "algo.target_kl=0"),
         (("algo.target_kl=0.01",), "algo.anneal_lr=true"),  # two schedules at once
         (("algo.anneal_lr=false", "algo.target_kl=0.01", "algo.min_lr=1"), "algo.min_lr=1"),
+        (("algo.observation_decay=1.5",), "algo.observation_decay=1.5"),
+        (("algo.observation_clip=-5",), "algo.observation_clip=-5"),
     ],
 )
 def test_bad_settings_fail_before_training_naming_the_key(

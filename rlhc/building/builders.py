@@ -195,7 +195,14 @@ def with_training_transforms(cfg: TrainConfig, base: EnvBase) -> TransformedEnv:
         # Statistics are shared by the worlds (reduce_batch_dims) and kept per agent slot;
         # with mirrored observations and a shared policy both teams' slots converge alike.
         # VecNormV2 whose variance cannot go negative (a feature that stops varying).
-        transforms.append(SafeVecNorm(in_keys=keys, decay=0.99999, reduce_batch_dims=True))
+        transforms.append(
+            SafeVecNorm(
+                in_keys=keys,
+                decay=cfg.algo.observation_decay,
+                reduce_batch_dims=True,
+                clip=cfg.algo.observation_clip,
+            )
+        )
     with warnings.catch_warnings():
         # VecNormV2 (and SafeVecNorm) call batched containers "experimental": the batched path is the one
         # this project runs and tests (tests/test_train.py, tests/evaluation).

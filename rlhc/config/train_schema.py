@@ -125,6 +125,15 @@ class PPOConfig:
             within ``[min_lr, lr]``; it starts at ``lr`` and is kept in the checkpoint
             (Adam's state). Replaces the linear decay (``anneal_lr`` must be false).
         min_lr: the adapted learning rate's floor (``target_kl`` only).
+        observation_decay: the observation normaliser's decay per observation (its
+            statistics are exponential averages with this weight per world-decision);
+            ``1.0``: cumulative averages over the whole run, as ML-Agents 0.5, whose
+            statistics settle where these keep following the play.
+        observation_clip: ``null`` (no clip), or the bound of the normalised
+            observations, ``[-clip, clip]`` (ML-Agents 0.5: 5). A feature that hardly
+            varies (a racket's height, 0.015 of scale in a run whose rackets rarely
+            jump) normalises to tens on the states where it does vary, and there a
+            small drift of its statistics moves the network's input by units.
     """
 
     max_steps: int = measured_in("world-decisions", MISSING)
@@ -151,6 +160,8 @@ class PPOConfig:
     normalize_observations: bool = MISSING
     target_kl: float | None = None
     min_lr: float = 1e-6
+    observation_decay: float = 0.99999
+    observation_clip: float | None = None
 
 
 #: The factor by which :func:`adapted_lr` moves the learning rate (rsl_rl, rl_games).

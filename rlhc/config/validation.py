@@ -135,6 +135,16 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
             raise ConfigError(
                 f"algo.min_lr={cfg.algo.min_lr}; allowed: a number in (0, algo.lr = {cfg.algo.lr}]"
             )
+    decay = cfg.algo.observation_decay
+    if not (math.isfinite(decay) and 0.0 < decay <= 1.0):
+        raise ConfigError(
+            f"algo.observation_decay={decay}; allowed: a number in (0, 1] (1: cumulative)"
+        )
+    clip = cfg.algo.observation_clip
+    if clip is not None and not (math.isfinite(clip) and clip > 0):
+        raise ConfigError(
+            f"algo.observation_clip={clip}; allowed: null (no clip) or a finite number > 0"
+        )
     cap = cfg.algo.max_importance_ratio
     if cap is not None and not (math.isfinite(cap) and cap > 1.0 + cfg.algo.clip_epsilon):
         raise ConfigError(

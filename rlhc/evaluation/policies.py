@@ -67,11 +67,14 @@ class RestoredPolicy:
         loc: ``group -> [n_g, d]`` normaliser mean of what the actor reads, or ``None``
             (no normalisation).
         scale: ``group -> [n_g, d]`` normaliser scale, or ``None``.
+        clip: the bound of the normalised observations (``algo.observation_clip``), or
+            ``None``.
     """
 
     actors: dict[str, torch.nn.Module]
     loc: dict[str, torch.Tensor] | None
     scale: dict[str, torch.Tensor] | None
+    clip: float | None = None
 
     def __call__(self, tensordict: TensorDictBase) -> dict[str, torch.Tensor]:
         """Actions of every agent of every group (the caller keeps its own team's).
@@ -89,6 +92,8 @@ class RestoredPolicy:
         observation = tensordict[key]
         if self.loc is not None and self.scale is not None:
             observation = (observation - self.loc[group]) / self.scale[group]
+            if self.clip is not None:
+                observation = observation.clamp(-self.clip, self.clip)
         inputs = tensordict.select(key).clone(recurse=False)
         inputs.set(key, observation)
         return inputs
@@ -139,7 +144,7 @@ def restore_policy(state: Mapping[str, Any], env: EnvBase) -> RestoredPolicy:
         training_env.transform.load_state_dict(state["env_transform"])
         loc, scale = normaliser_statistics(training_env.transform, actors)
         training_env.close()
-    return RestoredPolicy(actors, loc, scale)
+    return RestoredPolicy(actors, loc, scale, cfg.algo.observation_clip)
 
 
 def normaliser_statistics(

@@ -43,3 +43,15 @@ def manager_view_checkpoint(tmp_path_factory: pytest.TempPathFactory) -> Path:
     overrides = ("algo.max_steps=256", "logger.backends=[csv]", "model.actor_view=manager")
     Trainer(smoke_config("tennis", *overrides), run_dir).train()
     return run_dir
+
+
+@pytest.fixture(scope="session")
+def clipped_checkpoint(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Run directory of a one-update tennis run whose normalised observations are clipped
+    (tight enough to bind)."""
+    from rlhc.training.trainer import Trainer
+
+    run_dir = tmp_path_factory.mktemp("tennis_clipped")
+    overrides = ("algo.max_steps=256", "logger.backends=[csv]", "algo.observation_clip=0.5")
+    Trainer(smoke_config("tennis", *overrides), run_dir).train()
+    return run_dir

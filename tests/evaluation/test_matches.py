@@ -148,7 +148,7 @@ def test_checkpoints_with_different_observations_cannot_meet(tmp_path: Path) -> 
         player_options([str(tmp_path / "plain"), str(tmp_path / "extended")], "tennis")
 
 
-@pytest.mark.parametrize("view", ["worker", "manager"])
+@pytest.mark.parametrize("view", ["worker", "manager", "clipped"])
 def test_restored_policy_sees_what_the_trained_actor_saw(
     view: str, checkpoints: dict[str, Path], request: pytest.FixtureRequest
 ) -> None:
@@ -159,23 +159,23 @@ def test_restored_policy_sees_what_the_trained_actor_saw(
     from rlhc.evaluation.policies import checkpoint_config, restore_policy
     from rlhc.storage.checkpoint import load_checkpoint
 
-    run = (
-        checkpoints["tennis"]
-        if view == "worker"
-        else request.getfixturevalue("manager_view_checkpoint")
-    )
-    key = "observation" if view == "worker" else "manager_observation"
+    fixtures = {"manager": "manager_view_checkpoint", "clipped": "clipped_checkpoint"}
+    run = checkpoints["tennis"] if view == "worker" else request.getfixturevalue(fixtures[view])
+    key = "manager_observation" if view == "manager" else "observation"
     state = load_checkpoint(run)
     training_env = make_training_env(checkpoint_config(state), num_envs=3, seed=1)
     training_env.transform.load_state_dict(state["env_transform"])
     next(t for t in training_env.transform if isinstance(t, VecNormV2)).freeze()
     normalised = training_env.reset()
     game = training_env.base_env.game.observe()["racket"]  # the same state, raw
-    raw = game.observation if view == "worker" else game.manager_observation
+    raw = game.manager_observation if view == "manager" else game.observation
     policy = restore_policy(state, make_env("tennis", num_envs=3, seed=1))
     assert policy.actors["racket"].in_keys == [("racket", key)]
     assert policy.loc is not None and policy.scale is not None
     expected = (torch.from_numpy(raw) - policy.loc["racket"]) / policy.scale["racket"]
+    if view == "clipped":
+        assert policy.clip == 0.5 and expected.abs().max() > 0.5  # the clip binds
+        expected = expected.clamp(-0.5, 0.5)
     torch.testing.assert_close(normalised["racket", key], expected)
     raw_td = TensorDict({("racket", key): torch.from_numpy(raw)}, [3])
     with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad():
