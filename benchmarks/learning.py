@@ -78,6 +78,30 @@ GAUSSIAN_POLICY = (
     "model.initial_action_scale=1.0",
     "model.head_init_scale=0.01",
 )
+#: ML-Agents 0.5's Gaussian as that trainer scales it: actions clip(u, -3, 3) / 3.
+MLAGENTS_POLICY = (*GAUSSIAN_POLICY, "model.pre_clip_range=3.0")
+#: A league where 30 % of the courts play the scripted team and 20 % past selves.
+LEAGUE_WITH_SCRIPTED = (
+    "league=mixed",
+    "league.snapshot=0.2",
+    "league.scripted=0.3",
+    "league.random=0",
+)
+#: ML-Agents 0.5's entropy bonus per action dimension (beta / 3 on tennis' three), the
+#: actor reading the manager's view, in :data:`LEAGUE_WITH_SCRIPTED`.
+MLAGENTS_VIEW_LEAGUE = (
+    "algo.entropy_coef=0.0016667",
+    "model.actor_view=manager",
+    *LEAGUE_WITH_SCRIPTED,
+)
+#: probe_mlagents_league_view (see PRESETS).
+MLAGENTS_LEAGUE_VIEW = (
+    *MLAGENTS_POLICY,
+    *PROBE_SCHEDULE,
+    "algo.lr=1e-3",
+    "algo.epochs=6",
+    *MLAGENTS_VIEW_LEAGUE,
+)
 
 #: env -> preset name -> overrides of the training config (after ``env=`` and ``critic=``).
 PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
@@ -96,18 +120,11 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         "probe_gaussian": (*GAUSSIAN_POLICY, *PROBE_SCHEDULE),
         # Learning probe: ML-Agents 0.5's Gaussian with its scaling (actions clip(u, -3, 3)/3,
         # so the initial scale is a third of the action range), otherwise probe_gaussian.
-        "probe_mlagents": (*GAUSSIAN_POLICY, "model.pre_clip_range=3.0", *PROBE_SCHEDULE),
+        "probe_mlagents": (*MLAGENTS_POLICY, *PROBE_SCHEDULE),
         # Learning probe: probe_gaussian in a league: half the courts self-play, 30 %
         # against the scripted team (which returns the ball: many more balls to play),
         # 20 % against past selves.
-        "probe_gaussian_league": (
-            *GAUSSIAN_POLICY,
-            *PROBE_SCHEDULE,
-            "league=mixed",
-            "league.snapshot=0.2",
-            "league.scripted=0.3",
-            "league.random=0",
-        ),
+        "probe_gaussian_league": (*GAUSSIAN_POLICY, *PROBE_SCHEDULE, *LEAGUE_WITH_SCRIPTED),
         # Learning probes: probe_gaussian at 3.3x its learning rate (its KL per update
         # stays at 0.002-0.004 and its clip fraction under 6 %), then that with twice the
         # epochs (more gradient steps per collected experience).
@@ -127,8 +144,7 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         # dimensions where IndependentNormal sums them: beta / 3 on tennis' three), at
         # probe_gaussian_lr_epochs' lr 1e-3 and 6 epochs, constant.
         "probe_mlagents_lr_epochs": (
-            *GAUSSIAN_POLICY,
-            "model.pre_clip_range=3.0",
+            *MLAGENTS_POLICY,
             *PROBE_SCHEDULE,
             "algo.lr=1e-3",
             "algo.epochs=6",
@@ -181,54 +197,26 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         # of points against the scripted team: a rally with itself) in a league where 30 %
         # of the courts play the scripted team and 20 % past selves, its actor reading the
         # manager's view (long_actor_view seed 0: no serve missed from 1.3 M on).
-        "probe_mlagents_league_view": (
-            *GAUSSIAN_POLICY,
-            "model.pre_clip_range=3.0",
-            *PROBE_SCHEDULE,
-            "algo.lr=1e-3",
-            "algo.epochs=6",
-            "algo.entropy_coef=0.0016667",
-            "model.actor_view=manager",
-            "league=mixed",
-            "league.snapshot=0.2",
-            "league.scripted=0.3",
-            "league.random=0",
-        ),
+        "probe_mlagents_league_view": MLAGENTS_LEAGUE_VIEW,
         # probe_mlagents_league_view at Table 3's lr (3e-4) and epochs (3), kept constant:
         # its seed 0 rallied 13.5 hits per point with itself at 1.26 M (38 with mode
         # actions) and took 22-36 % of the points of its courts against the scripted team,
         # then lost its serve within 0.25 M (untouched serves 0.02 -> 0.37 per point) while
         # every update moved the policy to the clip range's edge (KL 0.02-0.03, clip
         # fraction 0.23-0.29, scale 0.04 on the move).
-        "probe_mlagents_league_view_lr": (
-            *GAUSSIAN_POLICY,
-            "model.pre_clip_range=3.0",
-            *PROBE_SCHEDULE,
-            "algo.entropy_coef=0.0016667",
-            "model.actor_view=manager",
-            "league=mixed",
-            "league.snapshot=0.2",
-            "league.scripted=0.3",
-            "league.random=0",
-        ),
+        "probe_mlagents_league_view_lr": (*MLAGENTS_POLICY, *PROBE_SCHEDULE, *MLAGENTS_VIEW_LEAGUE),
         # probe_mlagents_league_view with its learning rate adapted to the KL per update
         # (algo.target_kl 0.01: the rate, at most 1e-3, falls by 1.5 after an update
         # whose KL exceeded 0.02 and rises after one under 0.005), its 6 epochs kept: the
         # fast start of lr 1e-3 (a rally with itself by 1 M on seeds 0 and 1), the steps
         # of a smaller rate once the policy is narrow.
         "probe_mlagents_league_view_adaptive": (
-            *GAUSSIAN_POLICY,
-            "model.pre_clip_range=3.0",
+            *MLAGENTS_POLICY,
             *PROBE_SCHEDULE,
             "algo.lr=1e-3",
             "algo.target_kl=0.01",
             "algo.epochs=6",
-            "algo.entropy_coef=0.0016667",
-            "model.actor_view=manager",
-            "league=mixed",
-            "league.snapshot=0.2",
-            "league.scripted=0.3",
-            "league.random=0",
+            *MLAGENTS_VIEW_LEAGUE,
         ),
         # probe_mlagents_league_view with ML-Agents 0.5's observation normaliser:
         # cumulative statistics and normalised values clipped to [-5, 5]. Its
@@ -239,17 +227,7 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         # the statistics' drift, not the update, broke it (the racket's height, scale
         # 0.015, normalises to tens where a racket jumps).
         "probe_mlagents_league_view_norm": (
-            *GAUSSIAN_POLICY,
-            "model.pre_clip_range=3.0",
-            *PROBE_SCHEDULE,
-            "algo.lr=1e-3",
-            "algo.epochs=6",
-            "algo.entropy_coef=0.0016667",
-            "model.actor_view=manager",
-            "league=mixed",
-            "league.snapshot=0.2",
-            "league.scripted=0.3",
-            "league.random=0",
+            *MLAGENTS_LEAGUE_VIEW,
             "algo.observation_decay=1.0",
             "algo.observation_clip=5.0",
         ),
