@@ -43,7 +43,7 @@ from tensordict import TensorDict, TensorDictBase
 from tensordict.nn import InteractionType, set_interaction_type
 
 from rlhc.envs import make_env
-from rlhc.envs.keys import ACTION, INFO, MANAGER_OBSERVATION, NEXT, OBSERVATION, SCALE
+from rlhc.envs.keys import ACTION, ENDED_PREFIX, INFO, MANAGER_OBSERVATION, NEXT, OBSERVATION, SCALE
 from rlhc.envs.tennis.game import HOME_X
 from rlhc.envs.tennis.observations import LENGTH_SCALE, TEAM_SIGN, observe_rackets
 from rlhc.envs.tennis.physics import CourtGeometry
@@ -102,7 +102,10 @@ def _hits_per_point(rollout: TensorDictBase) -> tuple[float, int]:
 
 def _endings(rollout: TensorDictBase) -> dict[str, float]:
     points = max(int(rollout[NEXT, "done"].sum()), 1)
-    return {how: float(rollout[NEXT, INFO, f"ended_{how}"].sum()) / points for how in POINT_ENDINGS}
+    return {
+        how: float(rollout[NEXT, INFO, f"{ENDED_PREFIX}{how}"].sum()) / points
+        for how in POINT_ENDINGS
+    }
 
 
 def _toward_ball(rollout: TensorDictBase) -> float:
