@@ -102,6 +102,8 @@ MLAGENTS_LEAGUE_VIEW = (
     "algo.epochs=6",
     *MLAGENTS_VIEW_LEAGUE,
 )
+#: ML-Agents 0.5's observation normaliser: cumulative statistics, values clipped to +-5.
+MLAGENTS_NORMALISER = ("algo.observation_decay=1.0", "algo.observation_clip=5.0")
 
 #: env -> preset name -> overrides of the training config (after ``env=`` and ``critic=``).
 PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
@@ -228,8 +230,30 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         # 0.015, normalises to tens where a racket jumps).
         "probe_mlagents_league_view_norm": (
             *MLAGENTS_LEAGUE_VIEW,
-            "algo.observation_decay=1.0",
-            "algo.observation_clip=5.0",
+            *MLAGENTS_NORMALISER,
+        ),
+        # probe_mlagents_league_view_norm with half of the courts against the scripted team
+        # and its lr decayed linearly to 0 over 5 M (ML-Agents 0.5 decays it over its
+        # budget). At constant lr its seeds 0 and 1 beat the scripted team from 2.25-2.5 M
+        # (74 and 58 of 100 matches), but seed 0 declined from 3 M (5 matches at 4.58 M)
+        # with a KL of 0.03 per update, and seed 2 rallied 20-30 hits per point with
+        # itself while losing 0.46 points per point on scripted shots it did not return.
+        "probe_mlagents_norm_scripted_anneal": (
+            *MLAGENTS_POLICY,
+            "algo.anneal_lr=true",
+            "algo.anneal_entropy_coef=false",
+            "algo.max_steps=5000000",
+            "checkpoint_freq=250000",
+            "algo.lr=1e-3",
+            "algo.epochs=6",
+            "algo.entropy_coef=0.0016667",
+            "model.actor_view=manager",
+            "league=mixed",
+            "league.self_play=0.3",
+            "league.snapshot=0.2",
+            "league.scripted=0.5",
+            "league.random=0",
+            *MLAGENTS_NORMALISER,
         ),
         # long with the pre-tanh mean bounded (model.loc_bound): long seed 0 keeps a KL of
         # 0.037 per update at lr 2e-8 at the end (TanhNormal's log-probability of a
