@@ -105,6 +105,28 @@ MLAGENTS_LEAGUE_VIEW = (
 #: ML-Agents 0.5's observation normaliser: cumulative statistics, values clipped to +-5.
 MLAGENTS_NORMALISER = ("algo.observation_decay=1.0", "algo.observation_clip=5.0")
 
+#: The tennis preset whose teams rally (``best``, study ``tennis_best``): ML-Agents 0.5's
+#: Gaussian, entropy bonus per dimension and observation normaliser, the actor reading the
+#: manager's view, lr 1e-3 decayed linearly to 0 over 5 M court-decisions, 6 epochs, half
+#: of the courts against the scripted team and a fifth against past selves.
+TENNIS_BEST = (
+    *MLAGENTS_POLICY,
+    "algo.anneal_lr=true",
+    "algo.anneal_entropy_coef=false",
+    "algo.max_steps=5000000",
+    "checkpoint_freq=250000",
+    "algo.lr=1e-3",
+    "algo.epochs=6",
+    "algo.entropy_coef=0.0016667",
+    "model.actor_view=manager",
+    "league=mixed",
+    "league.self_play=0.3",
+    "league.snapshot=0.2",
+    "league.scripted=0.5",
+    "league.random=0",
+    *MLAGENTS_NORMALISER,
+)
+
 #: env -> preset name -> overrides of the training config (after ``env=`` and ``critic=``).
 PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
     "tennis": {
@@ -238,23 +260,10 @@ PRESETS: dict[str, dict[str, tuple[str, ...]]] = {
         # (74 and 58 of 100 matches), but seed 0 declined from 3 M (5 matches at 4.58 M)
         # with a KL of 0.03 per update, and seed 2 rallied 20-30 hits per point with
         # itself while losing 0.46 points per point on scripted shots it did not return.
-        "probe_mlagents_norm_scripted_anneal": (
-            *MLAGENTS_POLICY,
-            "algo.anneal_lr=true",
-            "algo.anneal_entropy_coef=false",
-            "algo.max_steps=5000000",
-            "checkpoint_freq=250000",
-            "algo.lr=1e-3",
-            "algo.epochs=6",
-            "algo.entropy_coef=0.0016667",
-            "model.actor_view=manager",
-            "league=mixed",
-            "league.self_play=0.3",
-            "league.snapshot=0.2",
-            "league.scripted=0.5",
-            "league.random=0",
-            *MLAGENTS_NORMALISER,
-        ),
+        "probe_mlagents_norm_scripted_anneal": TENNIS_BEST,
+        # The study tennis_best (conf/study/tennis_best.yaml, its runs in tennis/best):
+        # probe_mlagents_norm_scripted_anneal, every critic.
+        "best": TENNIS_BEST,
         # long with the pre-tanh mean bounded (model.loc_bound): long seed 0 keeps a KL of
         # 0.037 per update at lr 2e-8 at the end (TanhNormal's log-probability of a
         # saturated mean, rebuilt through atanh) and collapses near 8 M.
@@ -463,19 +472,30 @@ def train(runs: Sequence[LearningRun], jobs: int) -> list[LearningRun]:
     return failed
 
 
+def match_summary(
+    checkpoint: str | Path, env: str, opponent: str, matches: int, seed: int
+) -> dict[str, Any]:
+    """``matches`` matches of a checkpoint against ``opponent``, mode actions, sides swapped.
+
+    As ``python -m rlhc.evaluate env=<env> home=<checkpoint> away=<opponent>
+    matches=<matches> seed=<seed>``: seed, then build the env and both players.
+    """
+    seed_everything(seed)
+    match_env = make_match_env(env, min(EVAL_WORLDS, matches), seed, [str(checkpoint)])
+    try:
+        policy = make_team_policy(str(checkpoint), match_env)
+        return evaluate_against(policy, opponent, match_env, matches)
+    finally:
+        match_env.close()
+
+
 def evaluate(run: LearningRun, matches: int, seed: int) -> dict[str, Any]:
     """Match summaries of the run's newest checkpoint against each of :data:`OPPONENTS`."""
     checkpoint = load_checkpoint(run.run_dir)["path"]
-    summaries: dict[str, Any] = {}
-    for opponent in OPPONENTS:
-        # As ``python -m rlhc.evaluate``: seed, then build the env and both players.
-        seed_everything(seed)
-        env = make_match_env(run.env, min(EVAL_WORLDS, matches), seed, [checkpoint])
-        summaries[opponent] = evaluate_against(
-            make_team_policy(checkpoint, env), opponent, env, matches
-        )
-        env.close()
-    return summaries
+    return {
+        opponent: match_summary(checkpoint, run.env, opponent, matches, seed)
+        for opponent in OPPONENTS
+    }
 
 
 def record(run: LearningRun, args: argparse.Namespace) -> dict[str, Any]:

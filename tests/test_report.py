@@ -127,11 +127,13 @@ def test_plan_reads_the_study_configs_and_is_seed_major() -> None:
     known = studies()
     assert list(known) == [
         "tennis_paper", "tennis_extended", "soccer_paper", "tennis_extensions", "soccer_best",
+        "tennis_best",
     ]  # fmt: skip
     assert known["soccer_paper"].configs == ("ppo", "hierarchical", "twin")
     assert (known["soccer_paper"].env, known["soccer_paper"].max_steps) == ("soccer", 500_000)
     assert (known["tennis_paper"].env, known["tennis_paper"].max_steps) == ("tennis", 3_600_000)
     assert known["soccer_best"].max_steps == 1_000_000  # the study's own budget
+    assert (known["tennis_best"].env, known["tennis_best"].max_steps) == ("tennis", 5_000_000)
     assert known["tennis_extended"].configs == ("ppo", "hierarchical")
     assert all(s.seeds == (0, 1, 2, 3, 4) for n, s in known.items() if n != "tennis_extensions")
     assert (
@@ -147,7 +149,7 @@ def test_plan_reads_the_study_configs_and_is_seed_major() -> None:
     ]
     assert runs[0].overrides == ("study=tennis_extensions", "critic=manager", "seed=0")
     assert runs[0].run_dir == known["tennis_extensions"].root / "manager" / "seed_0"
-    assert len(plan(list(known))) == sum(s.planned for s in known.values()) == 64
+    assert len(plan(list(known))) == sum(s.planned for s in known.values()) == 79
     assert known["tennis_extensions"].seeds == (0, 1, 2)  # the compute plan's 3 seeds
     with pytest.raises(KeyError, match="unknown studies"):
         plan(["nonesuch"])

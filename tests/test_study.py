@@ -9,6 +9,7 @@ nothing. The runs here use ``experiment=smoke`` and a sweep directory under
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import shutil
 from pathlib import Path
@@ -21,6 +22,7 @@ from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 from test_resume import snapshot
 
+from benchmarks.learning import PRESETS
 from rlhc.cli.cleanup import remove_if_unused, remove_unused_sweep
 from rlhc.cli.hydra_hooks import run_directory
 from rlhc.storage.checkpoint import load_checkpoint
@@ -32,7 +34,10 @@ STUDIES = {
     "tennis_extensions": ("tennis", False, ["manager", "mean", "hierarchical_k5"], "self_play", 0.0, 3_600_000, "tennis/extensions"),
     "soccer_paper": ("soccer", None, ["ppo", "hierarchical", "twin"], "self_play", 0.0, 500_000, "soccer/paper"),
     "soccer_best": ("soccer", None, ["ppo", "hierarchical", "twin"], "mixed", 0.1, 1_000_000, "soccer/best"),
+    "tennis_best": ("tennis", False, ["ppo", "hierarchical", "twin"], "mixed", 0.0, 5_000_000, "tennis/best"),
 }  # fmt: skip
+#: League shares of a study that are not its league option's own.
+SHARES = {"tennis_best": {"self_play": 0.3, "snapshot": 0.2, "scripted": 0.5, "random": 0.0}}
 #: Seeds per configuration where a study has fewer than 5 (the compute plan).
 SEEDS = {"tennis_extensions": 3}
 #: A small study: 64-frame updates (tennis smoke), a summary and a checkpoint each.
@@ -68,7 +73,7 @@ def test_a_study_composes_its_game_league_shaping_budget_and_sweep(study: str) -
     cfg = load(f"study={study}")
     assert cfg.env.name == env
     assert getattr(cfg.env, "extended_obs", None) is extended
-    assert cfg.league == option("league", league)
+    assert cfg.league == dataclasses.replace(option("league", league), **SHARES.get(study, {}))
     assert cfg.shaping.scale == shaping
     assert cfg.algo.max_steps == budget
     assert cfg.resume == "auto"
@@ -84,6 +89,15 @@ def test_a_study_composes_its_game_league_shaping_budget_and_sweep(study: str) -
     for critic in critics:
         run = load(f"study={study}", f"critic={critic}", "seed=3")
         assert (run.critic, run.seed, run.env.name) == (option("critic", critic), 3, env)
+
+
+def test_tennis_best_is_the_learning_benchmarks_best_preset() -> None:
+    # The study and `python -m benchmarks.learning --env tennis --preset best` train alike.
+    study = load("study=tennis_best", "critic=hierarchical", "seed=2")
+    preset = load("env=tennis", "critic=hierarchical", *PRESETS["tennis"]["best"], "seed=2")
+    for section in ("env", "critic", "algo", "model", "league", "shaping"):
+        assert getattr(study, section) == getattr(preset, section), section
+    assert study.checkpoint_freq == preset.checkpoint_freq
 
 
 def test_hierarchical_k5_consults_the_manager_every_5_decisions() -> None:

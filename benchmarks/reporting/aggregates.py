@@ -30,7 +30,7 @@ from .tournament import Series, load_series
 #: Groups of tasks aggregated together: the paper's budget, and beyond it.
 TASK_GROUPS = {
     "the paper's budget": ("tennis_paper", "tennis_extended", "soccer_paper"),
-    "beyond the paper's budget": ("soccer_best",),
+    "beyond the paper's budget": ("soccer_best", "tennis_best"),
 }
 
 

@@ -160,7 +160,14 @@ def read_study(path: Path) -> Study:
 
 
 #: The order of the report: the paper's studies, then those beyond it.
-ORDER = ("tennis_paper", "tennis_extended", "soccer_paper", "tennis_extensions", "soccer_best")
+ORDER = (
+    "tennis_paper",
+    "tennis_extended",
+    "soccer_paper",
+    "tennis_extensions",
+    "soccer_best",
+    "tennis_best",
+)
 
 
 def _order(path: Path) -> tuple[int, str]:
