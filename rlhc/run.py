@@ -16,7 +16,8 @@ How it ends, and its exit code:
 |---|---|---|
 | trained to ``algo.max_steps`` | ``results in <run dir>`` | 0 |
 | ``resume=`` of a run that reached ``algo.max_steps`` (a multirun job: that job) | that it is finished; nothing is written | 0 |
-| a user error: a bad value (:class:`~rlhc.errors.ConfigError`), a resume path that holds no checkpoint or whose settings differ (:class:`~rlhc.storage.checkpoint.ResumeError`), a Hydra override or composition error | ``rlhc.run: error: <one line>``; no run directory is left behind, an existing one is left as it was | 2 |
+| ``resume=auto`` in a directory with no checkpoint whose ``metrics.csv`` records ``algo.max_steps`` frames (a committed run, its checkpoints not kept) | the same | 0 |
+| a user error: a bad value (:class:`~rlhc.errors.ConfigError`), a resume path that holds no checkpoint or whose settings differ, ``resume=auto`` in a directory that records fewer frames than ``algo.max_steps`` but holds no checkpoint (:class:`~rlhc.storage.checkpoint.ResumeError`), a Hydra override or composition error | ``rlhc.run: error: <one line>``; no run directory is left behind, an existing one is left as it was | 2 |
 | SIGINT / SIGTERM during training | where the checkpoint is and the command that resumes it | 130 / 143 |
 
 ``HYDRA_FULL_ERROR=1`` shows the traceback of a user error instead. Any other error is

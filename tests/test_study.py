@@ -220,6 +220,35 @@ def test_a_failed_job_leaves_every_existing_run_directory_as_it_was(
         assert snapshot(runs) == before
 
 
+def test_a_study_run_without_its_checkpoints_is_never_trained_over(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A clone holds a study's committed outputs (metrics.csv, logs) but no checkpoints.
+    sweep = ["-m", *SMALL, "hydra.sweep.dir=study", "critic=ppo", "algo.max_steps=128"]
+    first = run_in_process([*sweep, "seed=0,1"], tmp_path, monkeypatch, capsys)
+    assert first.code == 0, first.stderr
+    finished, cut = (tmp_path / "study" / "ppo" / f"seed_{seed}" for seed in (0, 1))
+    for run in (finished, cut):
+        shutil.rmtree(run / "checkpoints")
+    metrics = (cut / "metrics.csv").read_text().splitlines()
+    (cut / "metrics.csv").write_text("\n".join(metrics[:-1]) + "\n")  # stopped at 64 frames
+    before = snapshot(tmp_path / "study" / "ppo")  # (multirun.yaml: each sweep's own)
+
+    again = run_in_process([*sweep, "seed=0"], tmp_path, monkeypatch, capsys)
+    assert again.code == 0, again.stderr
+    assert (
+        "metrics.csv records 128 frames of algo.max_steps=128: the run is finished" in again.stdout
+    )
+    refused = run_in_process([*sweep, "seed=1"], tmp_path, monkeypatch, capsys)
+    assert refused.code == 2
+    assert refused.stderr.splitlines()[-1].endswith(
+        "records 64 of algo.max_steps=128 frames in metrics.csv but holds no checkpoint to "
+        "continue from; a fresh run would overwrite that record. Move or delete the "
+        "directory to train the run again from the start"
+    )
+    assert snapshot(tmp_path / "study" / "ppo") == before
+
+
 # --- the study as a multirun, started twice ------------------------------------------
 def test_a_study_multirun_trains_every_run_once_then_skips_them(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]

@@ -24,6 +24,7 @@ from rlhc.config.train_schema import RESUME_AUTO, TrainConfig
 from rlhc.config.validation import validate
 from rlhc.storage.checkpoint import ResumeError, checkpoint_candidates, load_checkpoint
 from rlhc.training.distributed import launched_size
+from rlhc.training.loggers import METRICS_FILE, recorded_frames
 from rlhc.training.training_state import check_resumable
 
 
@@ -35,20 +36,31 @@ class Start:
         cfg: the config to train, ``resume=auto`` resolved (:func:`resolve_resume`).
         state: the checkpoint it continues (:func:`rlhc.storage.checkpoint.load_checkpoint`,
             checked by :func:`rlhc.training.training_state.check_resumable`); ``None``: a fresh run.
+        recorded: with ``resume=auto`` and no checkpoint, the frames that the run
+            directory's ``metrics.csv`` records as trained (a run whose checkpoints were
+            not kept, such as a committed study run in a fresh clone); ``None`` otherwise.
     """
 
     cfg: TrainConfig
     state: dict[str, Any] | None
+    recorded: int | None = None
 
     def finished_message(self) -> str | None:
-        """What to say when the checkpoint already reached the budget, else ``None``."""
-        if self.state is None or int(self.state["frames"]) < self.cfg.algo.max_steps:
-            return None
-        return (
-            f"{shown(Path(self.state['path']))} has trained {int(self.state['frames']):,} "
-            f"frames of algo.max_steps={self.cfg.algo.max_steps:,}: the run is finished, "
-            "nothing to do (raise algo.max_steps to continue it)"
-        )
+        """What to say when the run already reached the budget, else ``None``."""
+        budget = self.cfg.algo.max_steps
+        if self.state is not None and int(self.state["frames"]) >= budget:
+            return (
+                f"{shown(Path(self.state['path']))} has trained {int(self.state['frames']):,} "
+                f"frames of algo.max_steps={budget:,}: the run is finished, "
+                "nothing to do (raise algo.max_steps to continue it)"
+            )
+        if self.recorded is not None and self.recorded >= budget:
+            return (
+                f"{METRICS_FILE} records {self.recorded:,} frames of algo.max_steps="
+                f"{budget:,}: the run is finished, nothing to do (its checkpoints are not "
+                "here: train it again in another directory to continue it)"
+            )
+        return None
 
 
 #: The latest check (absolute run directory, start): one slot, so that at most one
@@ -85,6 +97,33 @@ def resolve_resume(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
         return cfg
     resume = shown(run_dir) if checkpoint_candidates(run_dir) else None
     return dataclasses.replace(cfg, resume=resume)
+
+
+def recorded_without_checkpoint(config: TrainConfig, cfg: TrainConfig, run_dir: Path) -> int | None:
+    """Frames a ``resume=auto`` run directory records in ``metrics.csv`` with no checkpoint.
+
+    A fresh run would overwrite that record: a finished one (``algo.max_steps``
+    reached) is left as it is, an unfinished one is refused.
+
+    Args:
+        config: the config as given (``resume`` not resolved).
+        cfg: the same, ``resume=auto`` resolved (:func:`resolve_resume`).
+        run_dir: the directory this run writes to.
+
+    Raises:
+        ResumeError: the record stops short of ``algo.max_steps``.
+    """
+    if config.resume != RESUME_AUTO or cfg.resume is not None:
+        return None
+    frames = recorded_frames(run_dir / METRICS_FILE)
+    if frames is None or frames >= cfg.algo.max_steps:
+        return frames
+    raise ResumeError(
+        f"resume=auto: {shown(run_dir)} records {frames:,} of algo.max_steps="
+        f"{cfg.algo.max_steps:,} frames in {METRICS_FILE} but holds no checkpoint to "
+        "continue from; a fresh run would overwrite that record. Move or delete the "
+        "directory to train the run again from the start"
+    )
 
 
 def preflight(cfg: TrainConfig) -> dict[str, Any] | None:
@@ -137,7 +176,8 @@ def checked(config: DictConfig, run_dir: Path, *, fresh: bool = False) -> Start:
     if not fresh and _latest is not None and _latest[0] == key and _latest[1].cfg == cfg:
         return _latest[1]
     _latest = None  # a failed check keeps no earlier start
-    start = Start(cfg, preflight(cfg))
+    recorded = recorded_without_checkpoint(train_cfg, cfg, run_dir)
+    start = Start(cfg, preflight(cfg), recorded)
     _latest = (key, start)
     return start
 

@@ -80,6 +80,25 @@ def wandb_run_id(run_dir: Path, resume: bool) -> str:
     return run_id
 
 
+def recorded_frames(path: Path) -> int | None:
+    """The frame count of ``metrics.csv``'s last row; ``None`` if it holds no row.
+
+    Examples:
+        >>> import tempfile
+        >>> run = Path(tempfile.mkdtemp())
+        >>> recorded_frames(run / METRICS_FILE) is None
+        True
+        >>> _ = (run / METRICS_FILE).write_text("step,loss\\n1000.0,0.5\\n2000.0,0.4\\n")
+        >>> recorded_frames(run / METRICS_FILE)
+        2000
+    """
+    if not path.is_file():
+        return None
+    with path.open(newline="") as f:
+        steps = [row["step"] for row in csv.DictReader(f) if row.get("step")]
+    return int(float(steps[-1])) if steps else None
+
+
 class CSVMetrics:
     """Append-only wide CSV; the header grows when a new metric first appears."""
 
