@@ -29,6 +29,8 @@ from typing import Any
 import numpy as np
 from train_throughput import compose_config
 
+from rlhc.analysis.drawing import save_figure
+
 RESULTS = Path(__file__).parent / "results"
 
 
@@ -92,7 +94,7 @@ def plot(samples: np.ndarray, path: Path, title: str, settle_frames: float) -> N
     axes.set_ylim(bottom=0)
     axes.legend(loc="lower right", fontsize=8)
     figure.tight_layout()
-    figure.savefig(path, dpi=120)
+    save_figure(figure, path)
     plt.close(figure)
 
 

@@ -7,8 +7,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 import pytest
+from PIL import Image
 
 from rlhc import plot
 from rlhc.analysis.curves import (
@@ -20,6 +22,10 @@ from rlhc.analysis.curves import (
     group_runs,
     load_runs,
 )
+from rlhc.analysis.drawing import PNG_COLOURS, compact_png, plot_runs
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 
 
 def write_run(
@@ -103,6 +109,38 @@ def test_plot_writes_png(runs: Path, tmp_path: Path, capsys: pytest.CaptureFixtu
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     printed = capsys.readouterr().out
     assert "striker/cumulative_reward" in printed and "fusion=max" in printed
+
+
+def test_a_png_is_written_as_a_palette_image_and_other_formats_as_drawn(
+    runs: Path, tmp_path: Path
+) -> None:
+    png = plot_runs([runs], out=tmp_path / "curves.png")
+    with Image.open(png) as image:
+        assert image.mode == "P"
+        drawn = np.asarray(image.convert("RGB"))
+    assert 16 < len(np.unique(drawn.reshape(-1, 3), axis=0)) <= PNG_COLOURS  # lines, not one colour
+    svg = plot_runs([runs], out=tmp_path / "curves.svg")
+    assert svg.read_text().lstrip().startswith("<?xml")
+
+
+def test_compact_png_keeps_a_curve_figure_close_to_as_drawn(tmp_path: Path) -> None:
+    fig, ax = plt.subplots(figsize=(4, 3))
+    steps = np.linspace(0, 1, 200)
+    for shift, colour in ((0.0, "tab:blue"), (0.3, "tab:orange"), (0.6, "tab:green")):
+        ax.plot(steps, np.sin(8 * steps) + shift, color=colour, label=colour)
+        ax.fill_between(steps, np.sin(8 * steps) + shift - 0.2, np.sin(8 * steps) + shift + 0.2, color=colour, alpha=0.2)  # fmt: skip
+    ax.legend()
+    ax.set_title("critic: cumulative reward")
+    fig.savefig(tmp_path / "rgba.png", dpi=100)
+    plt.close(fig)
+    compact_png(tmp_path / "rgba.png", tmp_path / "palette.png")
+    with Image.open(tmp_path / "rgba.png") as rgba, Image.open(tmp_path / "palette.png") as palette:
+        assert palette.mode == "P"
+        before = np.asarray(rgba.convert("RGB")).astype(int)
+        after = np.asarray(palette.convert("RGB")).astype(int)
+    error = np.abs(before - after).max(axis=-1)  # per pixel, of 255
+    assert error.mean() < 1.0 and np.percentile(error, 99) <= 16
+    assert (tmp_path / "palette.png").stat().st_size < 0.6 * (tmp_path / "rgba.png").stat().st_size
 
 
 def test_missing_run_is_named(tmp_path: Path) -> None:

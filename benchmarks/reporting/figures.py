@@ -12,7 +12,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from rlhc.analysis.curves import PAPER_METRICS, Run, aggregate
-from rlhc.analysis.drawing import plot_groups
+from rlhc.analysis.drawing import plot_groups, save_figure
 
 from .runs import StudyRun
 from .study import PLAY_METRIC, SMOOTHING
@@ -90,6 +90,6 @@ def draw_learning_curves(
     fig.suptitle(f"{title} (smoothing {smoothing})")
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=120)
+    save_figure(fig, out)
     plt.close(fig)
     return out

