@@ -25,7 +25,7 @@ from rlhc.analysis.curves import (
 from rlhc.analysis.drawing import PNG_COLOURS, compact_png, plot_runs
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
+import matplotlib.pyplot as plt  # after the backend is chosen
 
 
 def write_run(
