@@ -200,6 +200,10 @@ def test_summary_from_files_records_frames_budget_and_provenance(tmp_path: Path)
     empty.mkdir()
     nothing = summarise(PlannedRun("toy", "ppo", 0, 200, tmp_path), empty)
     assert (nothing.frames, nothing.updates, nothing.wall_time_s) == (None, None, None)
+    (empty / "metrics.csv").write_text("step\n")  # a run that has just started
+    started = summarise(PlannedRun("toy", "ppo", 0, 200, tmp_path), empty)
+    assert (started.frames, started.completed) == (None, False)
+    assert any("nothing trained yet" in note for note in started.notes)
 
 
 def test_summary_round_trips_and_refuses_bad_files(tmp_path: Path) -> None:

@@ -21,6 +21,7 @@ from typing import Any
 from omegaconf import OmegaConf
 
 from rlhc.analysis.curves import METRICS_FILE, read_metrics
+from rlhc.training.loggers import recorded_frames
 
 from .plan import PlannedRun
 
@@ -192,7 +193,8 @@ def summarise(run: PlannedRun, run_dir: Path) -> RunSummary:
     """
     notes: list[str] = []
     metrics = run_dir / METRICS_FILE
-    columns = read_metrics(metrics) if metrics.is_file() else {}
+    # A run that has just started has a metrics.csv with no row yet.
+    columns = read_metrics(metrics) if recorded_frames(metrics) is not None else {}
     frames = checkpoint_frames(run_dir)
     frames_from: str | None = "checkpoints/latest.pt"
     if frames is None:
