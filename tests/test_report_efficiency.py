@@ -12,6 +12,7 @@ from test_report import toy_study, write_run
 
 from benchmarks.reporting.efficiency import (
     SCORE,
+    SELF_PLAY,
     efficiency_section,
     mean_over_training,
     measures,
@@ -90,3 +91,26 @@ def test_the_match_score_is_read_only_where_matches_were_logged(tmp_path: Path) 
     assert ppo.split(" | ")[-1].startswith("0.625")
     hierarchical = next(line for line in score_table if line.startswith("| `toy/hierarchical`"))
     assert hierarchical.split(" | ")[-1] == "— |"
+
+
+def test_tennis_play_with_itself_is_a_measure_where_it_was_measured(tmp_path: Path) -> None:
+    run_dir = write_run(tmp_path, "ppo", 0, RAMP)
+    study = toy_study(tmp_path)  # a tennis study
+    path = run_dir / "metrics.csv"
+    rows = list(csv.DictReader(path.open()))
+    for step, row in enumerate(rows):
+        row[SELF_PLAY] = "" if step % 2 else str(2.0 * step)  # measured on every other row
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    runs = discover({"toy": study})
+    assert [m.column for m in measures(study, runs)] == [
+        "events/hits_over_net_per_episode",
+        SELF_PLAY,
+    ]
+    lines, _ = efficiency_section(study, runs)
+    table_lines = lines[lines.index("*hits over the net per point with itself (play/)*") :]
+    ppo = next(line for line in table_lines if line.startswith("| `toy/ppo`"))
+    # measured at steps 10, 30, ..., 90: 0, 4, ..., 16, a straight line: its mean is 8
+    assert ppo.split(" | ")[-1].startswith("8")

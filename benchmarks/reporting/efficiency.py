@@ -4,8 +4,9 @@ The paper claims that RLHC "speeds up learning". Finals (:mod:`reporting.markdow
 steps to one threshold (:func:`reporting.document.play_and_speed`) each look at one point
 of the curve; this section reads the whole of it, for the game's play metric
 (:data:`reporting.study.PLAY_METRIC`: tennis hits over the net per point, soccer goal
-rate) and, where the runs logged periodic matches (``eval_freq``), the score against the
-scripted team (wins + draws / 2 per match):
+rate), the tennis policy's hits per point with itself where the runs measured it
+(``play_freq``), and, where the runs logged periodic matches (``eval_freq``), the score
+against the scripted team (wins + draws / 2 per match):
 
 * the smoothed curve (EMA, as every curve of the report) at a quarter, half, three
   quarters and all of the budget, mean over seeds [95% t];
@@ -36,6 +37,9 @@ MARKS = (0.25, 0.5, 0.75, 1.0)
 WIN_RATE, DRAW_RATE = "eval/win_rate", "eval/draw_rate"
 #: The derived column of the match score (wins + draws / 2), added by :func:`score_curve`.
 SCORE = "eval/score"
+#: ``metrics.csv`` column of the live tennis policy's play with itself (``play_freq``):
+#: unlike the training episodes' hits, which mix the league's opponents, one opponent.
+SELF_PLAY = "play/hits_per_point"
 
 
 class Measure(NamedTuple):
@@ -99,9 +103,12 @@ def value_at(run: Run, column: str, step: float) -> float | None:
 
 
 def measures(study: Study, runs: Sequence[StudyRun]) -> list[Measure]:
-    """The study's play metric, and the match score where a run logged matches."""
+    """The study's play metric, the live policy's play with itself where a run measured
+    it (``play_freq``), and the match score where a run logged matches."""
     play = PLAY_METRIC[study.env]
     found = [Measure(play.column, play.title, play.share)]
+    if study.env == "tennis" and any(SELF_PLAY in run.curves().columns for run in runs):
+        found.append(Measure(SELF_PLAY, "hits over the net per point with itself (play/)", False))
     if any(WIN_RATE in run.curves().columns for run in runs):
         found.append(Measure(SCORE, "score against the scripted team", True))
     return found
