@@ -19,11 +19,14 @@ import math
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING
 
 from PIL import Image
 
 from rlhc.analysis.curves import PAPER_METRICS, Run, aggregate, group_runs, load_runs, panel_metrics
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 def plot_runs(
@@ -114,7 +117,7 @@ def plot_groups(
 PNG_COLOURS = 256
 
 
-def save_figure(fig: Any, path: Path, dpi: int = 120) -> None:
+def save_figure(fig: Figure, path: Path, dpi: int = 120) -> None:
     """Write a matplotlib figure; a PNG as a palette image (:func:`compact_png`).
 
     Any other suffix (``.svg``, ``.pdf``, …) is written by matplotlib as it is.

@@ -99,21 +99,21 @@ def resolve_resume(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
     return dataclasses.replace(cfg, resume=resume)
 
 
-def recorded_without_checkpoint(config: TrainConfig, cfg: TrainConfig, run_dir: Path) -> int | None:
+def recorded_without_checkpoint(cfg: TrainConfig, run_dir: Path, *, auto: bool) -> int | None:
     """Frames a ``resume=auto`` run directory records in ``metrics.csv`` with no checkpoint.
 
     A fresh run would overwrite that record: a finished one (``algo.max_steps``
     reached) is left as it is, an unfinished one is refused.
 
     Args:
-        config: the config as given (``resume`` not resolved).
-        cfg: the same, ``resume=auto`` resolved (:func:`resolve_resume`).
+        cfg: the config, ``resume=auto`` resolved (:func:`resolve_resume`).
         run_dir: the directory this run writes to.
+        auto: whether the config as given asked for ``resume=auto``.
 
     Raises:
         ResumeError: the record stops short of ``algo.max_steps``.
     """
-    if config.resume != RESUME_AUTO or cfg.resume is not None:
+    if not auto or cfg.resume is not None:
         return None
     frames = recorded_frames(run_dir / METRICS_FILE)
     if frames is None or frames >= cfg.algo.max_steps:
@@ -176,7 +176,7 @@ def checked(config: DictConfig, run_dir: Path, *, fresh: bool = False) -> Start:
     if not fresh and _latest is not None and _latest[0] == key and _latest[1].cfg == cfg:
         return _latest[1]
     _latest = None  # a failed check keeps no earlier start
-    recorded = recorded_without_checkpoint(train_cfg, cfg, run_dir)
+    recorded = recorded_without_checkpoint(cfg, run_dir, auto=train_cfg.resume == RESUME_AUTO)
     start = Start(cfg, preflight(cfg), recorded)
     _latest = (key, start)
     return start
