@@ -1,4 +1,4 @@
-"""The policy of one group: a shared ``MultiAgentMLP`` turned into a distribution.
+"""The policy of one group: a shared ``GroupMLP`` turned into a distribution.
 
 | action spec | head | distribution |
 |---|---|---|
@@ -34,7 +34,7 @@ from tensordict.nn import (
 from torch import nn
 from torch.nn import functional as F
 from torchrl.data import Bounded, Categorical, Composite
-from torchrl.modules import IndependentNormal, MultiAgentMLP, ProbabilisticActor, TanhNormal
+from torchrl.modules import IndependentNormal, ProbabilisticActor, TanhNormal
 
 from rlhc.envs.keys import (
     ACTION,
@@ -45,7 +45,7 @@ from rlhc.envs.keys import (
     PRE_TANH_ACTION,
     SCALE,
 )
-from rlhc.modules.mlp import group_mlp
+from rlhc.modules.mlp import GroupMLP, group_mlp
 from rlhc.modules.schemas import NetworkConfig
 from rlhc.modules.shared import make_actor_value
 from rlhc.modules.specs import HasSpecs, action_spec, observation_size
@@ -60,14 +60,13 @@ def _per_agent_bound(bound: torch.Tensor, size: int, name: str) -> torch.Tensor:
     return rows[0].clone()
 
 
-def _scale_head(mlp: MultiAgentMLP, factor: float) -> MultiAgentMLP:
+def _scale_head(mlp: GroupMLP, factor: float) -> GroupMLP:
     # The last Linear of the MLP is the policy head; ML-Agents 0.5 starts its mean head
     # at 1 % of the usual initial weights, so that every action starts near 0.
     if factor != 1.0:
-        head = list(mlp.params.keys(include_nested=True, leaves_only=True))[-2:]
         with torch.no_grad():
-            for key in head:
-                mlp.params.get(key).mul_(factor)
+            for parameter in mlp.head.parameters():
+                parameter.mul_(factor)
     return mlp
 
 

@@ -2,19 +2,81 @@
 
 from __future__ import annotations
 
-from torchrl.modules import MultiAgentMLP
+import torch
+from torch import nn
+from torchrl.modules import MLP
 
 from rlhc.modules.schemas import NetworkConfig
 
 
-def group_mlp(n_inputs: int, n_outputs: int, n_agents: int, cfg: NetworkConfig) -> MultiAgentMLP:
+class GroupMLP(nn.Module):
+    """TorchRL's ``MLP`` applied to every agent of a group with the same weights.
+
+    What ``MultiAgentMLP(centralized=False, share_params=True)`` computes, and the same
+    parameters under the same names (``params.0.weight``, ...), so that checkpoints of
+    either load into the other; but called directly, where ``MultiAgentMLP`` swaps its
+    parameters into a stateless copy of the network (``to_module``) on every call, a
+    fixed cost of the same order as a minibatch's matmuls here.
+
+    Args:
+        n_inputs: per-agent input size.
+        n_outputs: per-agent output size.
+        n_agents: agents in the group (checked against the input's agent dim).
+        depth: hidden layers.
+        num_cells: width of each hidden layer.
+        activation_class: the hidden layers' activation.
+        activate_last_layer: also activate the output layer (a trunk).
+
+    Examples:
+        >>> mlp = GroupMLP(8, 3, 2, depth=1, num_cells=16, activation_class=nn.Tanh)
+        >>> mlp(torch.randn(5, 2, 8)).shape
+        torch.Size([5, 2, 3])
+    """
+
+    def __init__(
+        self,
+        n_inputs: int,
+        n_outputs: int,
+        n_agents: int,
+        *,
+        depth: int,
+        num_cells: int,
+        activation_class: type[nn.Module],
+        activate_last_layer: bool = False,
+    ) -> None:
+        super().__init__()
+        self.n_agents = n_agents
+        # Named as MultiAgentMLP names its weights: one state dict for both.
+        self.params = MLP(
+            in_features=n_inputs,
+            out_features=n_outputs,
+            depth=depth,
+            num_cells=num_cells,
+            activation_class=activation_class,
+            activate_last_layer=activate_last_layer,
+        )
+
+    @property
+    def head(self) -> nn.Linear:
+        """The output layer."""
+        return self.params[-2 if self.params.activate_last_layer else -1]
+
+    def forward(self, inputs: torch.Tensor) -> torch.Tensor:
+        if inputs.ndim < 2 or inputs.shape[-2] != self.n_agents:
+            raise ValueError(
+                f"GroupMLP of {self.n_agents} agents expects inputs [*B, {self.n_agents}, "
+                f"features], got shape {tuple(inputs.shape)}"
+            )
+        return self.params(inputs)
+
+
+def group_mlp(n_inputs: int, n_outputs: int, n_agents: int, cfg: NetworkConfig) -> GroupMLP:
     """One MLP applied to every agent of a group with the same weights.
 
-    ``share_params=True`` is symmetric self-play (both teams, all agents of a group
-    share a network, each agent seeing the world in its own team's frame);
-    ``centralized=False`` keeps each agent's input its own. Batching the agents into
-    one matmul is also what makes a PPO update about twice as fast as a loop over
-    agents on a 2-core CPU.
+    Shared weights are symmetric self-play (both teams, all agents of a group share a
+    network, each agent seeing the world in its own team's frame); each agent's input
+    is its own. Batching the agents into one matmul is also what makes a PPO update
+    about twice as fast as a loop over agents on a 2-core CPU.
 
     Args:
         n_inputs: per-agent input size.
@@ -23,14 +85,12 @@ def group_mlp(n_inputs: int, n_outputs: int, n_agents: int, cfg: NetworkConfig) 
         cfg: depth, width and activation.
 
     Returns:
-        A ``MultiAgentMLP`` mapping ``[*B, n_agents, n_inputs]`` to ``[*B, n_agents, n_outputs]``.
+        A :class:`GroupMLP` mapping ``[*B, n_agents, n_inputs]`` to ``[*B, n_agents, n_outputs]``.
     """
-    return MultiAgentMLP(
-        n_agent_inputs=n_inputs,
-        n_agent_outputs=n_outputs,
-        n_agents=n_agents,
-        centralized=False,
-        share_params=True,
+    return GroupMLP(
+        n_inputs,
+        n_outputs,
+        n_agents,
         depth=cfg.num_layers,
         num_cells=cfg.hidden_size,
         activation_class=cfg.activation_class,

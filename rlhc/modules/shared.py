@@ -7,7 +7,7 @@ on top, trained on the sum of the policy, value and entropy losses. TorchRL's
 
 | module | reads | writes |
 |---|---|---|
-| trunk: ``MultiAgentMLP``, ``num_layers`` activated layers | ``(g, "observation")`` | ``(g, "hidden")`` |
+| trunk: :class:`~rlhc.modules.mlp.GroupMLP`, ``num_layers`` activated layers | ``(g, "observation")`` | ``(g, "hidden")`` |
 | policy head: ``Linear`` + ``Categorical`` | ``(g, "hidden")`` | ``(g, "logits")``, ``(g, "action")``, ``(g, "action_log_prob")`` |
 | value head: ``Linear`` | ``(g, "hidden")`` | ``(g, "worker_value")`` |
 
@@ -27,9 +27,10 @@ import torch
 from tensordict.nn import TensorDictModule
 from torch import nn
 from torchrl.data import Categorical, Composite
-from torchrl.modules import ActorValueOperator, MultiAgentMLP, ProbabilisticActor
+from torchrl.modules import ActorValueOperator, ProbabilisticActor
 
 from rlhc.envs.keys import ACTION, HIDDEN, LOGITS, OBSERVATION, WORKER_VALUE
+from rlhc.modules.mlp import GroupMLP
 from rlhc.modules.schemas import NetworkConfig
 from rlhc.modules.specs import HasSpecs, action_spec, observation_size
 
@@ -60,7 +61,7 @@ def shared_trunk_error(group: str, spec: object) -> str | None:
     )
 
 
-def make_trunk(n_inputs: int, n_agents: int, cfg: NetworkConfig) -> MultiAgentMLP:
+def make_trunk(n_inputs: int, n_agents: int, cfg: NetworkConfig) -> GroupMLP:
     """The hidden layers of a shared network: ``cfg.num_layers`` layers, each activated.
 
     The same layers as the hidden part of :func:`~rlhc.modules.mlp.group_mlp` (one set
@@ -72,7 +73,7 @@ def make_trunk(n_inputs: int, n_agents: int, cfg: NetworkConfig) -> MultiAgentML
         cfg: depth, width and activation.
 
     Returns:
-        A ``MultiAgentMLP`` mapping ``[*B, n_agents, n_inputs]`` to
+        A :class:`~rlhc.modules.mlp.GroupMLP` mapping ``[*B, n_agents, n_inputs]`` to
         ``[*B, n_agents, cfg.hidden_size]``.
 
     Examples:
@@ -82,12 +83,10 @@ def make_trunk(n_inputs: int, n_agents: int, cfg: NetworkConfig) -> MultiAgentML
         >>> trunk(torch.randn(5, 2, 8)).shape
         torch.Size([5, 2, 16])
     """
-    return MultiAgentMLP(
-        n_agent_inputs=n_inputs,
-        n_agent_outputs=cfg.hidden_size,
-        n_agents=n_agents,
-        centralized=False,
-        share_params=True,
+    return GroupMLP(
+        n_inputs,
+        cfg.hidden_size,
+        n_agents,
         depth=cfg.num_layers - 1,
         num_cells=cfg.hidden_size,
         activation_class=cfg.activation_class,

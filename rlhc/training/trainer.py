@@ -283,7 +283,9 @@ class Trainer:
                 for key in (STATE_VALUE, WORKER_VALUE, MANAGER_VALUE, MANAGER_SELECTED):
                     if (group, key) in batch.keys(include_nested=True):  # PPO: no manager
                         stats[f"{group}/{key}"].append(batch[group, key].float().mean())
-        flat = batch.reshape(-1)
+        # The minibatches need no ("next", ...) entry once the advantages are in: half
+        # the entries fewer to index and for the loss to copy, the same arithmetic.
+        flat = batch.exclude("next").reshape(-1)
         # Data-parallel: this process's share of every minibatch, from its own worlds.
         share = layout.minibatch_frames // self.strategy.shards
         for _ in range(algo.epochs):

@@ -7,7 +7,9 @@ import dataclasses
 import pytest
 import torch
 from tensordict import TensorDict
+from torch import nn
 from torchrl.data import Bounded, Categorical, Composite, OneHot, Unbounded
+from torchrl.modules import MultiAgentMLP
 
 from rlhc.errors import ConfigError
 from rlhc.modules import (
@@ -17,6 +19,7 @@ from rlhc.modules import (
     make_manager_critic,
     make_worker_critic,
 )
+from rlhc.modules.mlp import GroupMLP
 
 CFG = NetworkConfig(num_layers=2, hidden_size=16)
 N_WORLDS, STEPS = 5, 3
@@ -186,3 +189,42 @@ def test_unsupported_action_spec() -> None:
     one_hot = specs("striker", 2, OneHot(6, (N_WORLDS, 2, 6)))
     with pytest.raises(TypeError, match=r"is OneHot.*expected Bounded"):
         make_actor(one_hot, "striker", CFG)
+
+
+@pytest.mark.parametrize("activate_last_layer", [False, True])
+def test_group_mlp_is_torchrls_shared_multi_agent_mlp_under_the_same_names(
+    activate_last_layer: bool,
+) -> None:
+    # Checkpoints written with MultiAgentMLP(share_params=True) load into a GroupMLP,
+    # and the two compute the same function of the same weights.
+    shape = {"depth": 2, "num_cells": 16, "activation_class": nn.Tanh}
+    torch.manual_seed(0)
+    reference = MultiAgentMLP(
+        n_agent_inputs=8,
+        n_agent_outputs=3,
+        n_agents=2,
+        centralized=False,
+        share_params=True,
+        activate_last_layer=activate_last_layer,
+        **shape,
+    )
+    torch.manual_seed(0)
+    group = GroupMLP(8, 3, 2, activate_last_layer=activate_last_layer, **shape)
+    state = reference.state_dict()
+    assert list(group.state_dict()) == list(state)
+    # The same draws from the same seed: runs seeded before and after are equal.
+    assert all(torch.equal(group.state_dict()[k], v) for k, v in state.items())
+    with torch.no_grad():
+        for parameter in group.parameters():
+            parameter.add_(1.0)
+    group.load_state_dict(state)
+    inputs = torch.randn(5, 3, 2, 8)
+    torch.testing.assert_close(group(inputs), reference(inputs), rtol=0, atol=0)
+    assert group.head is group.params[-2 if activate_last_layer else -1]
+    assert group.head.out_features == 3
+
+
+def test_group_mlp_names_a_wrong_agent_count() -> None:
+    mlp = GroupMLP(8, 3, 2, depth=1, num_cells=4, activation_class=nn.Tanh)
+    with pytest.raises(ValueError, match=r"2 agents.*\(5, 3, 8\)"):
+        mlp(torch.randn(5, 3, 8))
