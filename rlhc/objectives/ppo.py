@@ -49,6 +49,18 @@ class _CriticTerms(NamedTuple):
     manager_explained_variance: Tensor | None
 
 
+class CurrentPolicy(NamedTuple):
+    """The policy a loss forward scored its minibatch with (detached, as diagnostics need it).
+
+    Attributes:
+        dist: the current policy's distribution on the minibatch.
+        log_prob: ``log pi(a)`` of the minibatch's actions under ``dist``, detached.
+    """
+
+    dist: torch.distributions.Distribution
+    log_prob: Tensor
+
+
 def explained_variance(target: Tensor, value: Tensor, weight: Tensor | None = None) -> Tensor:
     """``1 - Var(target - value) / Var(target)`` over every element (no gradient).
 
@@ -194,6 +206,8 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             )
         # What the last loss_critic call computed, for forward's diagnostics (detached).
         self._critic_split: _CriticTerms | None = None
+        # The policy the last forward scored, until pop_current_policy hands it over.
+        self._current_policy: CurrentPolicy | None = None
 
     @property
     def out_keys(self) -> list[str]:
@@ -281,10 +295,11 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             A TensorDict of scalars (see the class docstring), or of per-sample terms
             with ``reduction="none"``.
         """
-        tensordict = tensordict.clone(False)
         if tensordict.get(self.tensor_keys.advantage, None) is None:
             # Run here (rather than inside ClipPPOLoss.forward) so that the value
-            # target lands in this copy, where the critic terms read it.
+            # target lands in a copy (not the caller's data), where the critic terms
+            # read it. ClipPPOLoss.forward copies the entries it writes to itself.
+            tensordict = tensordict.clone(False)
             with torch.no_grad():
                 self.value_estimator(tensordict)
         self._critic_split = None
@@ -301,6 +316,29 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             td_out.set(LOSS_MANAGER_CRITIC, self._reduce_like_torchrl(split.manager, tensordict))
             td_out.set(EXPLAINED_VARIANCE_MANAGER, split.manager_explained_variance)
         return td_out
+
+    def _get_cur_log_prob(
+        self, tensordict: TensorDictBase, params: Any = None
+    ) -> tuple[Tensor, Any, bool]:
+        # ClipPPOLoss's scoring of the actions; kept when it is the current policy's
+        # (params=None; a delayed actor's proximal policy passes its own parameters).
+        log_prob, dist, is_composite = super()._get_cur_log_prob(tensordict, params)
+        if params is None and not is_composite:
+            self._current_policy = CurrentPolicy(dist, log_prob.detach())
+        return log_prob, dist, is_composite
+
+    def pop_current_policy(self) -> CurrentPolicy | None:
+        """The policy the last :meth:`forward` scored its data with, then forgotten.
+
+        Per-experience diagnostics read it instead of running the actor a second time
+        (:func:`~rlhc.objectives.weighting.policy_diagnostics`): the same distribution
+        and log-probabilities, to the bit.
+
+        Returns:
+            A :class:`CurrentPolicy`, or ``None`` if no forward ran since the last pop.
+        """
+        policy, self._current_policy = self._current_policy, None
+        return policy
 
     def loss_critic(self, tensordict: TensorDictBase) -> tuple[Tensor, None, Tensor]:
         """ClipPPOLoss's critic hook: both critics regressed on the fused value's target.
