@@ -36,7 +36,8 @@ round runs each setup once per variant, one after another (baseline, current, th
 per-round ratios is reported with each variant's median share of its ceiling (the
 baseline's FLOP per frame and run length are taken from the working tree's config). The
 Markdown table is printed and the JSON gets a ``comparison`` key; ``summary`` then holds
-``current``'s runs only.
+``current``'s runs only. ``--overrides`` are appended to every run of every variant, the
+baseline's included: a preset compared before and after a change.
 
 ``--wrapper`` adds the older comparison with the straightforward TorchRL route (the
 game's PettingZoo env in ``PettingZooWrapper`` inside a ``SerialEnv``, same trainer, in
@@ -49,6 +50,8 @@ Examples:
         --baseline HEAD~3 --out /tmp/before_after.json
     python benchmarks/train_throughput.py --env soccer --setups one --repeats 3 \\
         --variant ppo=critic=ppo --variant big="model.hidden_size=256 algo.epochs=4"
+    python benchmarks/train_throughput.py --env tennis --setups one --repeats 3 \\
+        --baseline HEAD~3 --overrides study=tennis_best resume=null
     python benchmarks/train_throughput.py --env soccer --setups one --wrapper
     py-spy record --format raw -o soccer.txt -- python benchmarks/train_throughput.py \\
         --env soccer --setups one --updates 41 22
@@ -632,6 +635,9 @@ def make_parser() -> argparse.ArgumentParser:
                         metavar="NAME=OVERRIDES",
                         help="also run the working tree with these Hydra overrides appended "
                              "(space-separated; repeatable)")  # fmt: skip
+    parser.add_argument("--overrides", nargs="+", default=[], metavar="OVERRIDE",
+                        help="Hydra overrides appended to every run of every variant, the "
+                             "baseline's too (e.g. study=tennis_best resume=null)")  # fmt: skip
     parser.add_argument("--wrapper", action="store_true", help="add the PettingZooWrapper route")
     parser.add_argument("--breakdown", type=Path, help="summarise a py-spy raw profile and exit")
     parser.add_argument("--output", "--out", type=Path, default=RESULTS)
@@ -664,7 +670,8 @@ def run_rounds(
                 for variant in variants:
                     try:
                         run = run_setup(env, args.critic, setup, updates,
-                                        variant.overrides, variant.source)  # fmt: skip
+                                        (*args.overrides, *variant.overrides),
+                                        variant.source)  # fmt: skip
                     except RuntimeError as error:
                         if not label:
                             raise
@@ -694,14 +701,15 @@ def main() -> None:
         except RuntimeError as error:
             raise SystemExit(f"--baseline {args.baseline!r}: {error}") from None
     load_before = os.getloadavg()
-    ceilings = {env: ceiling(env, args.critic, []) for env in args.env}
+    ceilings = {env: ceiling(env, args.critic, list(args.overrides)) for env in args.env}
     # Each variant's ceiling: its own FLOP per frame (the working tree's config for the
     # baseline), GEMM shapes already measured reused.
     gemm = {(c["gemm_rows"], c["gemm_width"]): c["gemm_gflops_one_core"] for c in ceilings.values()}
     variant_ceilings = {BASELINE: ceilings, CURRENT: ceilings}
     for variant in args.variant:
         variant_ceilings[variant.name] = {
-            env: ceiling(env, args.critic, list(variant.overrides), gemm) for env in args.env
+            env: ceiling(env, args.critic, [*args.overrides, *variant.overrides], gemm)
+            for env in args.env
         }
     tree_state = working_tree() if comparing else None
     with contextlib.ExitStack() as stack:
@@ -742,6 +750,7 @@ def main() -> None:
             "command": shlex.join([Path(sys.executable).name, *sys.argv]),
             "reference": reference, "order": [v.name for v in variants],
             "baseline": revision, "current": tree_state,
+            "overrides": list(args.overrides),
             "variants": {v.name: list(v.overrides) for v in args.variant},
             "variant_ceilings": {v.name: variant_ceilings[v.name] for v in args.variant},
             "rows": table,

@@ -31,7 +31,7 @@ def run(variant: str, round_: int, rate: float, setup: str = "one") -> dict[str,
 
 def test_without_comparison_options_nothing_changes(tt: ModuleType) -> None:
     args = tt.parse_args([])
-    assert args.baseline is None and args.variant == []
+    assert args.baseline is None and args.variant == [] and args.overrides == []
     assert args.output == tt.RESULTS
     assert tt.parse_args(["--out", "/tmp/x.json"]).output == Path("/tmp/x.json")
 
@@ -48,6 +48,28 @@ def test_variants_parse_name_and_overrides(tt: ModuleType) -> None:
         ("ppo", ("critic=ppo",), None),
         ("big", ("model.hidden_size=256", "algo.epochs=4"), None),
         ("again", (), None),  # the working tree again: an A/A check
+    ]
+
+
+def test_overrides_reach_every_variant_the_baselines_too(
+    tt: ModuleType, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    args = tt.parse_args(["--env", "tennis", "--setups", "one", "--updates", "1", "2",
+                          "--overrides", "study=tennis_best", "resume=null"])  # fmt: skip
+    seen = []
+
+    def fake_run(env: str, critic: str, setup: str, updates: int, overrides: Any, source: Any):
+        seen.append((source, tuple(overrides)))
+        return {"frames_per_s": 1.0, "env_steps_per_s": 1.0}
+
+    monkeypatch.setattr(tt, "run_setup", fake_run)
+    variants = [tt.Variant("baseline", (), Path("/tmp/tree")), tt.Variant("current"),
+                tt.Variant("ppo", ("critic=ppo",))]  # fmt: skip
+    tt.run_rounds(args, variants, label=True)
+    assert seen == [
+        (Path("/tmp/tree"), ("study=tennis_best", "resume=null")),
+        (None, ("study=tennis_best", "resume=null")),
+        (None, ("study=tennis_best", "resume=null", "critic=ppo")),
     ]
 
 
