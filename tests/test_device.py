@@ -74,6 +74,10 @@ def test_networks_and_losses_are_built_on_the_device_and_the_games_stay_on_cpu(
     for group, loss in losses.items():
         tensors = [*loss.parameters(), *loss.buffers(), *actors[group].parameters()]
         assert {t.device.type for t in tensors} == {"meta"}, group
+        # Moved before the loss was built: the collection policy plays with the very
+        # parameters the optimiser steps (a loss moved afterwards would hold copies).
+        held = {id(p) for p in loss.parameters()}
+        assert all(id(p) in held for p in actors[group].parameters()), group
 
 
 @pytest.mark.parametrize("game", ["tennis", "soccer"])

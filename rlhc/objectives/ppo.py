@@ -49,18 +49,6 @@ class _CriticTerms(NamedTuple):
     manager_explained_variance: Tensor | None
 
 
-class CurrentPolicy(NamedTuple):
-    """The policy a loss forward scored its minibatch with (detached, as diagnostics need it).
-
-    Attributes:
-        dist: the current policy's distribution on the minibatch.
-        log_prob: ``log pi(a)`` of the minibatch's actions under ``dist``, detached.
-    """
-
-    dist: torch.distributions.Distribution
-    log_prob: Tensor
-
-
 def explained_variance(target: Tensor, value: Tensor, weight: Tensor | None = None) -> Tensor:
     """``1 - Var(target - value) / Var(target)`` over every element (no gradient).
 
@@ -189,6 +177,13 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             raise ValueError(
                 f"critic_coeff must be > 0 (both critics must learn), got {critic_coeff}"
             )
+        # ClipPPOLoss reads its coefficients on the host while it builds (critic_coeff
+        # > 0): its buffers are made there, then moved to the networks' device, which
+        # leaves the parameters (already there) shared with the caller's modules.
+        device = ppo_kwargs.pop("device", None)
+        if device is None:
+            first = next(actor_network.parameters(), None)
+            device = first.device if first is not None else torch.device("cpu")
         # One critic module computing both values: ClipPPOLoss then holds (and hands
         # to the optimiser) the parameters of both critics next to the actor's.
         super().__init__(
@@ -196,6 +191,7 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             TensorDictSequential(worker_critic, manager_critic),
             critic_coeff=critic_coeff,
             loss_critic_type=loss_critic_type,
+            device=torch.device("cpu"),
             **ppo_kwargs,
         )
         if self.max_importance_ratio is not None:
@@ -204,10 +200,9 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             self.register_buffer(
                 "max_importance_ratio", self.max_importance_ratio, persistent=False
             )
+        self.to(device)
         # What the last loss_critic call computed, for forward's diagnostics (detached).
         self._critic_split: _CriticTerms | None = None
-        # The policy the last forward scored, until pop_current_policy hands it over.
-        self._current_policy: CurrentPolicy | None = None
 
     @property
     def out_keys(self) -> list[str]:
@@ -316,29 +311,6 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             td_out.set(LOSS_MANAGER_CRITIC, self._reduce_like_torchrl(split.manager, tensordict))
             td_out.set(EXPLAINED_VARIANCE_MANAGER, split.manager_explained_variance)
         return td_out
-
-    def _get_cur_log_prob(
-        self, tensordict: TensorDictBase, params: Any = None
-    ) -> tuple[Tensor, Any, bool]:
-        # ClipPPOLoss's scoring of the actions; kept when it is the current policy's
-        # (params=None; a delayed actor's proximal policy passes its own parameters).
-        log_prob, dist, is_composite = super()._get_cur_log_prob(tensordict, params)
-        if params is None and not is_composite:
-            self._current_policy = CurrentPolicy(dist, log_prob.detach())
-        return log_prob, dist, is_composite
-
-    def pop_current_policy(self) -> CurrentPolicy | None:
-        """The policy the last :meth:`forward` scored its data with, then forgotten.
-
-        Per-experience diagnostics read it instead of running the actor a second time
-        (:func:`~rlhc.objectives.weighting.policy_diagnostics`): the same distribution
-        and log-probabilities, to the bit.
-
-        Returns:
-            A :class:`CurrentPolicy`, or ``None`` if no forward ran since the last pop.
-        """
-        policy, self._current_policy = self._current_policy, None
-        return policy
 
     def loss_critic(self, tensordict: TensorDictBase) -> tuple[Tensor, None, Tensor]:
         """ClipPPOLoss's critic hook: both critics regressed on the fused value's target.

@@ -28,7 +28,7 @@ from tensordict import TensorDictBase
 from tensordict.utils import NestedKey
 from torch import Tensor
 
-from rlhc.objectives.ppo import LOSS_KEYS, CurrentPolicy, HierarchicalPPOLoss
+from rlhc.objectives.ppo import LOSS_KEYS, HierarchicalPPOLoss
 
 #: Sums a tensor over the processes sharing a minibatch (the identity for one process).
 Reduce = Callable[[Tensor], Tensor]
@@ -175,48 +175,38 @@ def learner_weighted_loss(
     if normalize_advantage:
         standardise_advantage(minibatch, keys.advantage, weight, reduce)
     out = loss(minibatch)
-    policy = loss.pop_current_policy()
     total = sum(weighted_mean(out[term], weight, total_weight) for term in LOSS_KEYS)
     diagnostics = {
         key: weighted_mean(out[key].detach().float(), weight) for key in DIAGNOSTICS if key in out
     }
     if minibatch.get(keys.learner, None) is not None:
         # TorchRL averages these over every experience, the opponents' included.
-        diagnostics.update(policy_diagnostics(loss, minibatch, weight, policy))
+        diagnostics.update(policy_diagnostics(loss, minibatch, weight))
     return WeightedLoss(total, diagnostics)  # type: ignore[arg-type]
 
 
 def policy_diagnostics(
-    loss: HierarchicalPPOLoss,
-    minibatch: TensorDictBase,
-    weight: Tensor,
-    policy: CurrentPolicy | None = None,
+    loss: HierarchicalPPOLoss, minibatch: TensorDictBase, weight: Tensor
 ) -> dict[str, Tensor]:
     """``kl_approx``, ``clip_fraction`` and ``entropy`` of the current policy on a
     minibatch, each averaged under ``weight``.
 
     ``ClipPPOLoss`` reports these three as means over every experience whatever its
     ``reduction``; in a league world half of them were chosen by an opponent's policy,
-    whose log-probabilities make the ratio meaningless. Recomputed here per experience,
-    as ``ClipPPOLoss`` computes them: ``kl_approx = log pi_old(a) - log pi(a)``, clipped
-    where the ratio leaves ``[1 - eps, 1 + eps]``, the analytic entropy or else a
-    one-sample estimate.
+    whose log-probabilities make the ratio meaningless. Recomputed here per experience
+    (one more forward of the actor, without gradient), as ``ClipPPOLoss`` computes them:
+    ``kl_approx = log pi_old(a) - log pi(a)``, clipped where the ratio leaves
+    ``[1 - eps, 1 + eps]``, the analytic entropy or else a one-sample estimate.
 
     Args:
         loss: the group's loss (its actor, keys and ``clip_epsilon``).
         minibatch: a flat minibatch ``[B]`` of collected experiences.
         weight: ``[B, n_g]``, as :func:`learner_weight` gives it.
-        policy: the current policy as the loss's forward on this very minibatch scored
-            it (:meth:`~rlhc.objectives.HierarchicalPPOLoss.pop_current_policy`);
-            ``None`` runs the actor once more, without gradient.
     """
     keys = loss.tensor_keys
     with torch.no_grad():
-        if policy is None:
-            dist = loss.actor_network.get_dist(minibatch)
-            log_prob = dist.log_prob(minibatch[keys.action])
-        else:
-            dist, log_prob = policy
+        dist = loss.actor_network.get_dist(minibatch)
+        log_prob = dist.log_prob(minibatch[keys.action])
         kl_approx = minibatch[keys.sample_log_prob] - log_prob
         epsilon = loss.clip_epsilon
         clipped = (kl_approx < -torch.log1p(epsilon)) | (kl_approx > -torch.log1p(-epsilon))
