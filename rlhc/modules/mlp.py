@@ -15,9 +15,9 @@ class GroupMLP(nn.Module):
     What ``MultiAgentMLP(centralized=False, share_params=True)`` computes, and the same
     parameters under the same names (``params.0.weight``, ...), so that checkpoints of
     either load into the other; but called directly, where ``MultiAgentMLP`` swaps its
-    parameters into a stateless copy of the network (``to_module``) on every call: 13 to
-    18 % more time for a soccer minibatch's forward and backward through one 2 x 256
-    network (benchmarks/README, "Three more cuts").
+    parameters into a stateless copy of the network (``to_module``) on every call: on a
+    soccer minibatch through one 2 x 256 network, 18 % more time for the forward and 14 %
+    for forward and backward (benchmarks/README, "Three more cuts").
 
     Args:
         n_inputs: per-agent input size.
