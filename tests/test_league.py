@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
@@ -112,9 +111,9 @@ def test_opponent_experiences_carry_no_gradient(env: str, tmp_path: Path) -> Non
         # TanhNormal's entropy is a Monte Carlo estimate: the same draws each time.
         torch.manual_seed(0)
         trainer.optimizer.zero_grad(set_to_none=True)
-        stats: dict[str, list[torch.Tensor]] = defaultdict(list)
-        trainer.minibatch_loss(data.clone(), stats).backward()  # type: ignore[attr-defined]
-        diagnostics.append({name: values[0].item() for name, values in stats.items()})
+        total, stats = trainer.minibatch_loss(data.clone())  # type: ignore[attr-defined]
+        total.backward()
+        diagnostics.append({name: value.item() for name, value in stats.items()})
         return [p.grad.clone() for p in trainer.parameters if p.grad is not None]
 
     before = gradients(flat)

@@ -165,6 +165,12 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
     check_parallel(
         cfg.parallel, processes, cfg.device, cfg.league.active, cfg.algo.rescore_log_prob
     )
+    if cfg.compile and processes > 1 and cfg.parallel == "data":
+        raise ConfigError(
+            f"compile=true with parallel=data on {processes} processes: the loss sums its "
+            "weights over the processes inside the compiled step, which is not supported; "
+            "allowed: compile=false, or parallel=pipeline, or one process"
+        )
     interval = cfg.env.decision_interval
     if interval is not None and interval < 1:
         raise ConfigError(

@@ -44,9 +44,15 @@ from rlhc.config.train_schema import TrainConfig, adapted_lr, schedules
 from rlhc.config.validation import validate
 from rlhc.envs.keys import MANAGER_SELECTED, MANAGER_VALUE, STATE_VALUE, WORKER_VALUE
 from rlhc.modules import make_actor
-from rlhc.objectives import cut_trajectories, learner_weighted_loss, rescore_log_prob
+from rlhc.objectives import (
+    WeightedLoss,
+    cut_trajectories,
+    learner_weighted_loss,
+    rescore_log_prob,
+)
 from rlhc.storage.checkpoint import CHECKPOINT_DIR, save_checkpoint, seed_everything
 from rlhc.storage.final_team import save_team
+from rlhc.training.compilation import compiled
 from rlhc.training.distributed import Processes
 from rlhc.training.interrupt import StopSignals, TrainingInterrupted
 from rlhc.training.league import League, LeaguePolicy
@@ -134,6 +140,7 @@ class Trainer:
         # fused: one kernel over all parameters (on CPU too), ~9% of a soccer update.
         self.parameters = trainable_parameters(self.losses)
         self.optimizer = torch.optim.Adam(self.parameters, lr=cfg.algo.lr, fused=True)
+        self._minibatch_loss = compiled(self.minibatch_loss) if cfg.compile else self.minibatch_loss
         self.scripted_matches = ScriptedMatches(cfg)
         self.frames, self.iteration, self.wall_time = 0, 0, 0.0
         if resume is not None:
@@ -291,7 +298,8 @@ class Trainer:
         for _ in range(algo.epochs):
             order = torch.randperm(flat.numel())[: layout.minibatches * share]
             for index in order.split(share):
-                self.backward(flat[index], stats)
+                for name, value in self.backward(flat[index]).items():
+                    stats[name].append(value)
                 grad_norm = torch.nn.utils.clip_grad_norm_(self.parameters, algo.max_grad_norm)
                 stats["grad_norm"].append(grad_norm.detach())
                 self.optimizer.step()
@@ -301,31 +309,31 @@ class Trainer:
             name: float(np.mean(torch.stack(values).tolist())) for name, values in stats.items()
         }
 
-    def backward(
-        self, minibatch: TensorDictBase, stats: dict[str, list[torch.Tensor]] | None = None
-    ) -> None:
-        """Set every parameter's gradient to that of :meth:`minibatch_loss`.
+    def backward(self, minibatch: TensorDictBase) -> dict[str, torch.Tensor]:
+        """Set every parameter's gradient to that of :meth:`minibatch_loss`; return its
+        diagnostics.
 
-        Data-parallel, ``minibatch`` is this process's share and the gradients are
-        summed over the processes: every process then holds the gradient of the whole
-        minibatch, the one a single process computes.
+        With ``compile=true`` the loss and its backward run compiled
+        (:func:`~rlhc.training.compilation.compiled`). Data-parallel, ``minibatch`` is this
+        process's share and the gradients are summed over the processes: every process
+        then holds the gradient of the whole minibatch, the one a single process computes.
         """
-        total = self.minibatch_loss(minibatch, stats)
+        total, diagnostics = self._minibatch_loss(minibatch)
         self.optimizer.zero_grad(set_to_none=True)
         total.backward()
         self.strategy.reduce_gradients(self.parameters)
+        return diagnostics
 
-    def minibatch_loss(
-        self, minibatch: TensorDictBase, stats: dict[str, list[torch.Tensor]] | None = None
-    ) -> torch.Tensor:
+    def minibatch_loss(self, minibatch: TensorDictBase) -> WeightedLoss:
         """The summed PPO loss of every group on a minibatch (advantages already in it).
 
         Every term is averaged under the learner weight
         (:func:`~rlhc.objectives.learner_weighted_loss`): an experience that an opponent
-        chose (a league world) adds nothing. Diagnostics go to ``stats`` (this process's
-        share only, data-parallel; the summary pools the processes).
+        chose (a league world) adds nothing. The diagnostics are named ``<group>/<key>``
+        (this process's share only, data-parallel; the summary pools the processes).
         """
         total = torch.zeros((), device=self.device)
+        diagnostics: dict[str, torch.Tensor] = {}
         for group, loss in self.losses.items():
             out = learner_weighted_loss(
                 loss,
@@ -334,10 +342,9 @@ class Trainer:
                 reduce=self.strategy.reduce_sum,
             )
             total = total + out.total
-            if stats is not None:
-                for key, value in out.diagnostics.items():
-                    stats[f"{group}/{key}"].append(value)
-        return total
+            for key, value in out.diagnostics.items():
+                diagnostics[f"{group}/{key}"] = value
+        return WeightedLoss(total, diagnostics)
 
     # --- metrics --------------------------------------------------------------------
     def _summarise(self, window: SummaryWindow, summarised_at: int) -> dict[str, float]:
