@@ -1,15 +1,18 @@
-"""Does ``torch.compile`` speed up the PPO minibatch step? Eager against compiled, one run.
+"""Does ``compile=true`` speed up the PPO minibatch step? Eager against compiled, one run.
 
-Builds the trainer of a preset, collects one batch, estimates its advantages, then times
-passes over its minibatches (loss forward, backward, optimiser step, as
-:meth:`rlhc.training.trainer.Trainer.update` does them) eagerly and under ``torch.compile``: the
-first compiled minibatch (compile time) apart from the steady passes, and TorchDynamo's
-counts of graphs, graph breaks and frames compiled. Nothing is kept of the training.
+Builds the trainer of a preset twice from the same seed, ``compile=false`` and
+``compile=true`` (:mod:`rlhc.training.compilation`), collects one batch, estimates its
+advantages, then steps both over the same minibatches as
+:meth:`rlhc.training.trainer.Trainer.update` does (a fresh minibatch TensorDict each step;
+loss, backward, gradient clip, optimiser step): the first compiled minibatch (compile
+time) apart from the steady passes, the largest parameter difference after that first
+step, and TorchDynamo's counts of graphs, graph breaks and frames compiled. Nothing is
+kept of the training.
 
 Usage::
 
     python -m benchmarks.compile_update --env soccer
-    python -m benchmarks.compile_update --env tennis --cache-limit 64 --out /tmp/c.json
+    python -m benchmarks.compile_update --env tennis --overrides study=tennis_best resume=null
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from typing import Any
 import torch
 import torch._dynamo
 from tensordict import TensorDictBase
+from torch import Tensor
 from torch._dynamo.utils import counters
 
 from benchmarks.reporting.summary import code_version
@@ -36,59 +40,85 @@ from rlhc.training.trainer import Trainer
 RESULTS = Path(__file__).resolve().parent / "results" / "compile_update.json"
 
 
-def one_batch(trainer: Trainer) -> TensorDictBase:
-    """One collected batch with its advantages, flattened to ``[frames]``."""
-    batch = trainer.collect_batch()
+def one_batch(eager: Trainer, fast: Trainer) -> TensorDictBase:
+    """One batch collected by ``eager`` with its advantages, flattened to ``[frames]`` as
+    the update takes it. Both trainers' estimators run on it, as their updates would
+    (the estimator builds its fused value on first use; the loss reads it): the same
+    advantages, from the same weights."""
+    batch = eager.collect_batch()
     with torch.no_grad():
-        for loss in trainer.losses.values():
-            loss.value_estimator(batch)
-    return batch.reshape(-1)
+        for trainer in (fast, eager):
+            for loss in trainer.losses.values():
+                loss.value_estimator(batch)
+    return batch.exclude("next").reshape(-1)
 
 
 def timed_passes(
-    step: Callable[[TensorDictBase], None], minibatches: Sequence[TensorDictBase], passes: int
-) -> tuple[float, list[float]]:
-    """The first minibatch's seconds, then seconds per minibatch of each following pass."""
-    start = time.perf_counter()
-    step(minibatches[0])
-    first = time.perf_counter() - start
+    step: Callable[[TensorDictBase], None],
+    flat: TensorDictBase,
+    order: Tensor,
+    share: int,
+    passes: int,
+) -> list[float]:
+    """Seconds per minibatch of each pass over the minibatches of ``order``."""
     rates = []
     for _ in range(passes):
         start = time.perf_counter()
-        for minibatch in minibatches:
-            step(minibatch)
-        rates.append((time.perf_counter() - start) / len(minibatches))
-    return first, rates
+        for index in order.split(share):
+            step(flat[index])
+        rates.append((time.perf_counter() - start) / (len(order) // share))
+    return rates
+
+
+def stepper(trainer: Trainer) -> Callable[[TensorDictBase], None]:
+    """One minibatch step of ``trainer``, as its update takes it."""
+
+    def step(minibatch: TensorDictBase) -> None:
+        trainer.backward(minibatch)
+        torch.nn.utils.clip_grad_norm_(trainer.parameters, trainer.cfg.algo.max_grad_norm)
+        trainer.optimizer.step()
+
+    return step
 
 
 def measure(env: str, passes: int, cache_limit: int, overrides: Sequence[str]) -> dict[str, Any]:
     """Eager and compiled timings of one preset's minibatch step."""
-    torch.manual_seed(0)
-    cfg = compose_config(f"env={env}", "logger.backends=[csv]", "logger.progress=false",
-                         "threads=1", *overrides)  # fmt: skip
-    trainer = Trainer(cfg, Path(tempfile.mkdtemp(prefix="compile_update_")))
-    flat = one_batch(trainer)
-    share = trainer.layout.minibatch_frames
-    order = torch.randperm(flat.numel())[: trainer.layout.minibatches * share]
-    minibatches = [flat[index] for index in order.split(share)]
-
-    def step(minibatch: TensorDictBase) -> None:
-        trainer.backward(minibatch)
-        trainer.optimizer.step()
-
-    eager_first, eager = timed_passes(step, minibatches, passes)
     torch._dynamo.config.cache_size_limit = cache_limit
+
+    def build(compile_: bool) -> Trainer:
+        cfg = compose_config(f"env={env}", "logger.backends=[csv]", "logger.progress=false",
+                             "threads=1", f"compile={str(compile_).lower()}", *overrides)  # fmt: skip
+        return Trainer(cfg, Path(tempfile.mkdtemp(prefix="compile_update_")))
+
+    eager, fast = build(False), build(True)
+    flat = one_batch(eager, fast)
+    share = eager.layout.minibatch_frames
+    torch.manual_seed(0)
+    order = torch.randperm(flat.numel())[: eager.layout.minibatches * share]
+    # The same first step from the same weights: its time (the compiled one's holds the
+    # compilation) and how far apart it leaves the two.
     counters.clear()
-    compiled_first, compiled = timed_passes(torch.compile(step), minibatches, passes)
+    first = {}
+    for name, trainer in (("eager", eager), ("compiled", fast)):
+        torch.manual_seed(1)  # the same draws where an entropy is estimated by sampling
+        start = time.perf_counter()
+        stepper(trainer)(flat[order[:share]])
+        first[name] = time.perf_counter() - start
+    difference = max(
+        (a - b).abs().max().item() for a, b in zip(eager.parameters, fast.parameters, strict=True)
+    )
+    eager_rates = timed_passes(stepper(eager), flat, order, share, passes)
+    compiled_rates = timed_passes(stepper(fast), flat, order, share, passes)
     return {
         "env": env,
         "overrides": list(overrides),
-        "minibatches_per_pass": len(minibatches),
+        "minibatches_per_pass": len(order) // share,
         "minibatch_frames": share,
-        "eager_first_s": eager_first,
-        "eager_s_per_minibatch": eager,
-        "compiled_first_s": compiled_first,
-        "compiled_s_per_minibatch": compiled,
+        "max_parameter_difference_after_one_step": difference,
+        "eager_first_s": first["eager"],
+        "eager_s_per_minibatch": eager_rates,
+        "compiled_first_s": first["compiled"],
+        "compiled_s_per_minibatch": compiled_rates,
         "cache_size_limit": cache_limit,
         "unique_graphs": counters["stats"]["unique_graphs"],
         "graph_breaks": sum(counters["graph_break"].values()),
@@ -118,7 +148,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     print(
         f"{args.env}: eager {eager * 1e3:.1f} ms per minibatch; compiled {compiled * 1e3:.1f} ms "
         f"(first {result['compiled_first_s']:.1f} s), {result['unique_graphs']} graphs, "
-        f"{result['graph_breaks']} graph breaks -> {args.out}"
+        f"{result['graph_breaks']} graph breaks; parameters after one step differ by at most "
+        f"{result['max_parameter_difference_after_one_step']:.1e} -> {args.out}"
     )
 
 
