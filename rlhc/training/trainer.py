@@ -298,16 +298,22 @@ class Trainer:
         for _ in range(algo.epochs):
             order = torch.randperm(flat.numel())[: layout.minibatches * share]
             for index in order.split(share):
-                for name, value in self.backward(flat[index]).items():
+                for name, value in self.step(flat[index]).items():
                     stats[name].append(value)
-                grad_norm = torch.nn.utils.clip_grad_norm_(self.parameters, algo.max_grad_norm)
-                stats["grad_norm"].append(grad_norm.detach())
-                self.optimizer.step()
         if algo.target_kl is not None:
             self._adapt_lr(stats)
         return {
             name: float(np.mean(torch.stack(values).tolist())) for name, values in stats.items()
         }
+
+    def step(self, minibatch: TensorDictBase) -> dict[str, torch.Tensor]:
+        """One optimiser step on a minibatch: :meth:`backward`, the gradient clipped to
+        ``algo.max_grad_norm``, Adam's step (eager, also under ``compile=true``); the
+        loss's diagnostics and ``grad_norm`` (before clipping)."""
+        diagnostics = self.backward(minibatch)
+        grad_norm = torch.nn.utils.clip_grad_norm_(self.parameters, self.cfg.algo.max_grad_norm)
+        self.optimizer.step()
+        return {**diagnostics, "grad_norm": grad_norm.detach()}
 
     def backward(self, minibatch: TensorDictBase) -> dict[str, torch.Tensor]:
         """Set every parameter's gradient to that of :meth:`minibatch_loss`; return its
