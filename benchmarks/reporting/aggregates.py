@@ -27,10 +27,13 @@ from .standings import BUILT_IN, built_in_scores, store_of
 from .study import ALPHA, CRITICS
 from .tournament import Series, load_series
 
-#: Groups of tasks aggregated together: the paper's budget, and beyond it.
+#: Groups of tasks aggregated together: the paper's budget, and beyond it (where the two
+#: games' presets differ in more than the budget, each game also alone).
 TASK_GROUPS = {
     "the paper's budget": ("tennis_paper", "tennis_extended", "soccer_paper"),
     "beyond the paper's budget": ("soccer_best", "tennis_best"),
+    "beyond the paper's budget, soccer alone": ("soccer_best",),
+    "beyond the paper's budget, tennis alone": ("tennis_best",),
 }
 
 
