@@ -1,6 +1,7 @@
 # Two commands set everything up on a fresh machine:
 #   make train   installs into .venv (if missing) and runs the default game's paper preset
 #   make test    installs into .venv (if missing) and runs the test suite
+#   make docs    builds the documentation site into site/ (strict: a broken link fails)
 VENV   ?= .venv
 PYTHON ?= python3
 PY     := $(VENV)/bin/python
@@ -9,7 +10,7 @@ STAMP  := $(VENV)/.installed
 # dependency can pull a CUDA build.
 TORCH  ?= torch==2.13.0
 
-.PHONY: install train test lint bench clean
+.PHONY: install train test lint docs bench clean
 
 install: $(STAMP)
 
@@ -17,11 +18,11 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet "$(TORCH)"
-	$(PY) -m pip install --quiet -e ".[dev,cluster]"
+	$(PY) -m pip install --quiet -e ".[dev,cluster,docs]"
 	touch $(STAMP)
 
 # make train PROCS=2: the same run on 2 processes, collection overlapped with the update
-# (torchrun, parallel=pipeline; README "Training on several processes").
+# (torchrun, parallel=pipeline; docs/guide/performance.md "Several processes").
 PROCS  ?= 1
 train: $(STAMP)
 ifeq ($(PROCS),1)
@@ -39,6 +40,11 @@ lint: $(STAMP)
 	$(PY) -m ruff check rlhc tests benchmarks
 	$(PY) -m ruff format --check rlhc tests benchmarks
 	$(PY) -m mypy rlhc benchmarks
+
+# mkdocs.yml: the user guide, docs/RESULTS.md and the API reference from the docstrings;
+# --strict turns every warning (a broken link or anchor, an unknown API reference) into a failure.
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict
 
 bench: $(STAMP)
 	$(PY) benchmarks/env_throughput.py

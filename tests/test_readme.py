@@ -1,20 +1,24 @@
-"""The README's Quick start works as written: every command, with a tiny budget.
+"""The README: a few screens, its Quick start works as written, its numbers are the report's.
 
-:data:`REDUCED` holds, for each command of the section, what the test appends (or
+:data:`REDUCED` holds, for each command of the Quick start, what the test appends (or
 swaps) to keep it to seconds; the fast test fails when the README gains, loses or
 changes a command, so the table and the README move together. The slow test runs
 them all in order, in a fresh directory, as a shell would (``python`` is this
 interpreter; ``<time>``, ``<job>`` and ``<run dir or .pt>`` are the directories the
-earlier commands created).
+earlier commands created). The headline results must be numbers of ``docs/RESULTS.md``,
+and the docs site's configuration page must render the generated settings table
+(``docs/hooks.py``; ``make docs`` builds the site itself).
 """
 
 from __future__ import annotations
 
+import importlib.util
 import re
 import shlex
 import subprocess
 import sys
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 from cli_runs import ROOT, only_child, steps, subprocess_env
@@ -22,6 +26,8 @@ from cli_runs import ROOT, only_child, steps, subprocess_env
 from rlhc.storage.checkpoint import load_checkpoint
 
 README = ROOT / "README.md"
+RESULTS = ROOT / "docs" / "RESULTS.md"
+CONFIGURATION_PAGE = ROOT / "docs" / "guide" / "configuration.md"
 TINY = ["experiment=smoke", "algo.max_steps=128"]
 MATCHES = ["matches=2", "max_match_steps=60"]
 
@@ -64,9 +70,15 @@ REDUCED: dict[str, tuple[list[str], dict[str, str]]] = {
 }  # fmt: skip
 
 
+def section(text: str, heading: str) -> str:
+    """The ``## heading`` section of a markdown text, up to the next ``## `` heading."""
+    start = text.index(f"\n## {heading}\n")
+    end = text.find("\n## ", start + 1)
+    return text[start : end if end >= 0 else len(text)]
+
+
 def quick_start() -> str:
-    text = README.read_text()
-    return text[text.index("## Quick start") : text.index("## Outputs")]
+    return section(README.read_text(), "Quick start")
 
 
 def commands(section: str, language: str = "bash") -> list[str]:
@@ -162,13 +174,55 @@ def test_the_quick_start_commands_run_as_written(tmp_path: Path) -> None:
     assert (tmp_path / "curves.png").stat().st_size > 0
 
 
-def test_the_configuration_table_is_the_generated_one() -> None:
-    """README's table is what ``python -m rlhc.config.table`` prints (no drift)."""
-    from rlhc.config.table import README, readme_copy, table
+def test_the_readme_is_a_few_screens() -> None:
+    assert len(README.read_text().splitlines()) <= 300
 
-    assert readme_copy(README.read_text()) == table(), (
-        "README.md's configuration table is stale: run python -m rlhc.config.table --write"
-    )
+
+def test_the_readme_links_resolve() -> None:
+    targets = re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", README.read_text())
+    local = [t for t in targets if "://" not in t]
+    assert local
+    missing = [t for t in local if not (ROOT / t).exists()]
+    assert not missing, f"README links to missing files: {missing}"
+
+
+def test_the_headline_results_are_the_reports() -> None:
+    """Every ``value [low, high]`` of README's Results is one of docs/RESULTS.md's."""
+    headline = section(README.read_text(), "Results")
+    numbers = re.findall(r"-?\d+\.\d+ \[-?\d+\.\d+, -?\d+\.\d+\]", headline)
+    assert len(numbers) >= 6
+    report = RESULTS.read_text()
+    stale = [n for n in numbers if n not in report]
+    assert not stale, f"README's results are not docs/RESULTS.md's (rebuilt since?): {stale}"
+    command = "python -m benchmarks.report --matches 0"
+    assert command in headline and command in report
+
+
+def docs_hooks() -> ModuleType:
+    """``docs/hooks.py``, the MkDocs hooks (not a package module)."""
+    spec = importlib.util.spec_from_file_location("docs_hooks", ROOT / "docs" / "hooks.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_configuration_page_renders_the_generated_table() -> None:
+    """The docs site's table is what ``python -m rlhc.config.table`` prints (no drift)."""
+    from rlhc.config.table import table
+
+    hooks = docs_hooks()
+    page = CONFIGURATION_PAGE.read_text()
+    assert page.count(hooks.CONFIG_TABLE) == 1
+    rendered = hooks.render_config_table(page)
+    assert hooks.CONFIG_TABLE not in rendered
+    assert table() in rendered
+
+
+def test_the_api_pages_show_docstring_roles_as_code() -> None:
+    hooks = docs_hooks()
+    html = ":class:<code>~rlhc.envs.base.BatchedGame</code>, :func:<code>rlhc.envs.make_env</code>"
+    assert hooks.roles_as_code(html) == "<code>BatchedGame</code>, <code>rlhc.envs.make_env</code>"
 
 
 def test_every_setting_has_a_meaning_in_the_table() -> None:
