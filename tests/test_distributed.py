@@ -15,7 +15,6 @@ import sys
 from pathlib import Path
 
 import pytest
-import torch
 import torch.distributed as dist
 from configs import ROOT, load_smoke
 
@@ -23,7 +22,7 @@ from rlhc.building.builders import ConfigError, Layout
 from rlhc.cli.start import preflight
 from rlhc.config.validation import PARALLEL_MODES as MODES
 from rlhc.config.validation import check_parallel as check
-from rlhc.storage.checkpoint import CHECKPOINT_DIR
+from rlhc.storage.checkpoint import CHECKPOINT_DIR, load_checkpoint
 from rlhc.training.distributed import Processes
 
 TORCHRUN = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2"]
@@ -112,8 +111,7 @@ def test_pipeline_resumes_a_single_process_run(tmp_path: Path) -> None:
     rows = metrics(tmp_path / "run")
     assert [float(row["step"]) for row in rows] == [256.0, 512.0]
     before, after = (
-        torch.load(tmp_path / "run" / CHECKPOINT_DIR / f"step_{n:09d}.pt", weights_only=False)
-        for n in (256, 512)
+        load_checkpoint(tmp_path / "run" / CHECKPOINT_DIR / f"step_{n:09d}.pt") for n in (256, 512)
     )
     assert after["frames"] == 512
     # The collector's normaliser statistics reached the learner's checkpoint: they went

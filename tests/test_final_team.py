@@ -37,7 +37,7 @@ def finished(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_the_end_of_the_budget_writes_the_final_team(finished: Path) -> None:
-    team = torch.load(finished / TEAM_FILE, weights_only=False)
+    team = torch.load(finished / TEAM_FILE, weights_only=True)
     assert sorted(team) == sorted([*TEAM_KEYS, "format_version"])
     last = load_checkpoint(finished)
     assert team["frames"] == last["frames"] == 512

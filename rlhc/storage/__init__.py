@@ -2,7 +2,7 @@
 
 | module | holds |
 |---|---|
-| :mod:`rlhc.storage.checkpoint` | checkpoint files: written atomically, ordered newest first, loaded (skipping broken ones); the run directory a resume continues in; the random states |
+| :mod:`rlhc.storage.checkpoint` | checkpoint files: written atomically, ordered newest first, loaded weights only (skipping broken ones); the run directory a resume continues in; the random states |
 | :mod:`rlhc.storage.final_team` | ``final_team.pt``: the policy part of a finished run's last checkpoint, what matches load |
 
 Plain dicts and files only: nothing here builds a network or reads a schema, so the

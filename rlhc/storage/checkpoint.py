@@ -18,6 +18,12 @@ at any instant:
 Temporary files left behind by a kill (``.step_<frames>.pt.<pid>.<hex>.tmp``) are never
 read.
 
+**Loading never runs code.** Checkpoints and final teams are shared (a study's teams are
+committed, a team file is passed around to play), and unpickling an arbitrary object
+can run anything. Every file is read with torch's weights-only loader: tensors, numbers,
+strings and containers, plus the numpy arrays of :data:`NUMPY_ARRAYS`. A file that needs
+anything else is refused unread, the message naming the file and what it carried.
+
 **What a resume restores, and what it does not.** A checkpoint holds every group's
 actor and both critics, Adam's state, the observation normaliser's running statistics,
 the counters (frames, updates, wall time), the game's random generator and the global
@@ -68,6 +74,19 @@ LATEST = "latest.pt"
 STEP_GLOB = "step_*.pt"
 FORMAT_VERSION = 1
 _STEP_NAME = re.compile(r"step_(\d+)\.pt")
+#: What a checkpoint holds besides tensors, numbers, strings and containers: numpy
+#: arrays, in numpy's random state (``uint32``) and the league's opponents (``int64``).
+#: numpy pickles an array as a call of its ``_reconstruct``, whose module moved in numpy 2:
+#: ``__reduce__`` names the one this numpy has.
+NUMPY_ARRAYS: list[Any] = [
+    np.ndarray,
+    np.dtype,
+    np.dtypes.UInt32DType,
+    np.dtypes.Int64DType,
+    np.zeros(0).__reduce__()[0],
+]
+#: The type or function a refused file needs, in torch's weights-only error message.
+_REFUSED = re.compile(r"GLOBAL (\S+)|got <class '([^']+)'>")
 
 #: Config sections a resume may not change: the game, the value fusion and the
 #: networks are what the saved weights belong to.
@@ -231,16 +250,6 @@ def load_checkpoint(path: str | os.PathLike[str]) -> dict[str, Any]:
         raise ValueError(f"{str(file)!r} is not a loadable rlhc checkpoint: {error}") from error
 
 
-def resolve_checkpoint(path: str | os.PathLike[str]) -> Path:
-    """The file :func:`load_checkpoint` loads for ``path`` (it is loaded to check).
-
-    Raises:
-        FileNotFoundError: as :func:`load_checkpoint`.
-        ValueError: as :func:`load_checkpoint`.
-    """
-    return Path(load_checkpoint(path)["path"])
-
-
 def _load_newest(run_dir: Path) -> dict[str, Any]:
     """The first loadable file of :func:`checkpoint_candidates`, warning about skipped ones."""
     skipped: list[str] = []
@@ -271,12 +280,26 @@ def _load_newest(run_dir: Path) -> dict[str, Any]:
 
 
 def _read(file: Path) -> dict[str, Any]:
-    """Load ``file``; a ``ValueError`` whose message is the reason if it is no checkpoint."""
+    """Load ``file`` (weights only); a ``ValueError`` whose message is the reason if it is
+    no checkpoint."""
     try:
-        state = torch.load(file, map_location="cpu", weights_only=False)
+        with torch.serialization.safe_globals(NUMPY_ARRAYS), warnings.catch_warnings():
+            # A plain pickle's protocol draws a warning from torch before it is refused.
+            warnings.filterwarnings("ignore", "Detected pickle protocol")
+            state = torch.load(file, map_location="cpu", weights_only=True)
     except Exception as error:  # truncated or foreign files fail in many ways (zip, pickle, EOF)
-        first_line = (str(error).splitlines() or [""])[0]
-        raise ValueError(f"{type(error).__name__}: {first_line}") from error
+        message = str(error)
+        refused = _REFUSED.search(message)
+        if refused:
+            reason = (
+                f"it carries {refused.group(1) or refused.group(2)}, which a checkpoint may "
+                "not hold (only tensors, numbers, strings and containers are loaded, so that "
+                "loading a file never runs code)"
+            )
+        else:  # the reason follows torch's preamble, if it wrote one
+            found = message.split("WeightsUnpickler error:")[-1].strip().splitlines()
+            reason = f"{type(error).__name__}: {(found or [''])[0]}"
+        raise ValueError(reason) from error
     if not isinstance(state, dict) or state.get("format_version") != FORMAT_VERSION:
         raise ValueError(f"not an rlhc checkpoint of format {FORMAT_VERSION}")
     state["path"] = str(file)
