@@ -17,7 +17,7 @@ How it ends, and its exit code:
 | trained to ``algo.max_steps`` | ``results in <run dir>`` | 0 |
 | ``resume=`` of a run that reached ``algo.max_steps`` (a multirun job: that job) | that it is finished; nothing is written | 0 |
 | ``resume=auto`` in a directory with no checkpoint whose ``metrics.csv`` records ``algo.max_steps`` frames (a committed run, its checkpoints not kept) | the same | 0 |
-| a user error: a bad value (:class:`~rlhc.errors.ConfigError`), a resume path that holds no checkpoint or whose settings differ, ``resume=auto`` in a directory that records fewer frames than ``algo.max_steps`` but holds no checkpoint (:class:`~rlhc.storage.checkpoint.ResumeError`), a Hydra override or composition error | ``rlhc.run: error: <one line>``; no run directory is left behind, an existing one is left as it was | 2 |
+| a user error: a bad value (:class:`~rlhc.errors.ConfigError`), a resume path that holds no checkpoint or whose settings differ, ``resume=auto`` in a directory that records fewer frames than ``algo.max_steps`` but holds no checkpoint (:class:`~rlhc.storage.checkpoint.ResumeError`), a run directory another process trains in (:class:`~rlhc.storage.run_lock.RunDirInUse`), a Hydra override or composition error | ``rlhc.run: error: <one line>``; no run directory is left behind, an existing one is left as it was | 2 |
 | SIGINT / SIGTERM during training | where the checkpoint is and the command that resumes it | 130 / 143 |
 
 ``HYDRA_FULL_ERROR=1`` shows the traceback of a user error instead. Any other error is
@@ -61,6 +61,7 @@ from rlhc.cli.hydra_hooks import USER_ERRORS, PreflightFailed
 from rlhc.cli.report import shown, user_errors_in_one_line
 from rlhc.cli.start import forget_checked, take_checked
 from rlhc.config.train_schema import CONFIG_DIR, register_configs
+from rlhc.storage.run_lock import unlock_run_dirs
 from rlhc.training.distributed import (
     broadcast_object,
     launched_rank,
@@ -87,7 +88,8 @@ def main(cfg: DictConfig) -> float:
 
     A multirun job whose run is finished says so and returns ``nan``, writing nothing;
     one that fails on a user error removes what its start created
-    (:func:`~rlhc.cli.cleanup.remove_failed_job`) and raises.
+    (:func:`~rlhc.cli.cleanup.remove_failed_job`) and raises. The run directory's lock,
+    taken by the check, is released when training ends, however it ends.
     """
     hydra_cfg = HydraConfig.get()
     run_dir = Path(hydra_cfg.runtime.output_dir)
@@ -103,8 +105,8 @@ def main(cfg: DictConfig) -> float:
         print(message, flush=True)  # not logged: the run's log stays as the run left it
         return float("nan")
     train_cfg = start.cfg
-    processes = setup(train_cfg.parallel, train_cfg.device, train_cfg.league.active)
     try:
+        processes = setup(train_cfg.parallel, train_cfg.device, train_cfg.league.active)
         if processes.active:
             # Rank 0's directory: the others' own (named by their clock) stays empty.
             main_dir = Path(broadcast_object(str(run_dir)))
@@ -125,6 +127,7 @@ def main(cfg: DictConfig) -> float:
         sys.exit(stop.exit_code)
     finally:
         shutdown()
+        unlock_run_dirs()
     if processes.main:
         log.info(f"results in {shown(run_dir)}")
     rewards = [v for k, v in metrics.items() if k.endswith("/cumulative_reward")]

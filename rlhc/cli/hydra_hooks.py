@@ -28,9 +28,10 @@ from rlhc.config.evaluate_schema import EvaluateConfig
 from rlhc.config.train_schema import RESUME_AUTO
 from rlhc.evaluation.commands import check_evaluation
 from rlhc.storage.checkpoint import ResumeError, run_dir_of
+from rlhc.storage.run_lock import RunDirInUse
 
-#: Errors a user fixes by changing the command line of ``rlhc.run``.
-USER_ERRORS: tuple[type[BaseException], ...] = (*HYDRA_USER_ERRORS, ResumeError)
+#: Errors a user fixes by changing the command line of ``rlhc.run`` (or by waiting).
+USER_ERRORS: tuple[type[BaseException], ...] = (*HYDRA_USER_ERRORS, ResumeError, RunDirInUse)
 
 
 class PreflightFailed(BaseException):
@@ -51,9 +52,9 @@ class Preflight(Callback):
 
     Configured in ``conf/train.yaml`` (``hydra.callbacks``). A finished run ends here
     (exit 0) without writing anything; a user error reaches :func:`rlhc.run.cli` as
-    :class:`PreflightFailed`. The check (with the checkpoint it loaded) is kept for the
-    job. A multirun checks each job in :func:`output_subdir` and in :func:`rlhc.run.main`
-    instead.
+    :class:`PreflightFailed`. The check (with the checkpoint it loaded and the run
+    directory's lock it took) is kept for the job. A multirun checks each job in
+    :func:`output_subdir` and in :func:`rlhc.run.main` instead.
     """
 
     def on_run_start(self, config: DictConfig, **kwargs: Any) -> None:
@@ -108,7 +109,8 @@ def output_subdir(subdir: str, *, _root_: DictConfig) -> str | None:
     multirun job's directory before the job starts and offers no hook before that, so
     this answers, for each job, whether its check (:func:`rlhc.cli.start.checked`) lets
     it train: a finished run's directory must stay as it was, and so must any directory
-    a user error reaches. A single run was checked already (:class:`Preflight`).
+    a user error reaches; a job that will train takes its directory's lock in that check,
+    before ``.hydra/`` is written. A single run was checked already (:class:`Preflight`).
 
     Args:
         subdir: where ``.hydra/`` goes when the job trains (Hydra's ``.hydra``).

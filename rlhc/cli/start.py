@@ -1,4 +1,5 @@
-"""Before a training run writes anything: its config checked, its checkpoint loaded once.
+"""Before a training run writes anything: its config checked, its checkpoint loaded once,
+its directory locked.
 
 A start is checked before Hydra writes into the run's directory: a single run by the
 ``Preflight`` callback, a multirun job by the ``rlhc.output_subdir`` resolver (both in
@@ -6,6 +7,11 @@ A start is checked before Hydra writes into the run's directory: a single run by
 Loading a checkpoint is the costly part of a check, so the latest check is kept: the
 job takes it (:func:`take_checked`), checkpoint included, and hands that checkpoint
 to the :class:`~rlhc.training.trainer.Trainer`. A resume loads its checkpoint once.
+
+A start that will train then takes its run directory's lock
+(:mod:`rlhc.storage.run_lock`), so that no other process trains there until
+:func:`rlhc.run.main` releases it; under ``torchrun`` rank 0 alone, whose directory the
+other ranks use.
 """
 
 from __future__ import annotations
@@ -23,7 +29,8 @@ from rlhc.cli.report import shown
 from rlhc.config.train_schema import RESUME_AUTO, TrainConfig
 from rlhc.config.validation import validate
 from rlhc.storage.checkpoint import ResumeError, checkpoint_candidates, load_checkpoint
-from rlhc.training.distributed import launched_size
+from rlhc.storage.run_lock import lock_run_dir
+from rlhc.training.distributed import launched_rank, launched_size
 from rlhc.training.loggers import METRICS_FILE, recorded_frames
 from rlhc.training.training_state import check_resumable
 
@@ -154,10 +161,11 @@ def preflight(cfg: TrainConfig) -> dict[str, Any] | None:
 
 
 def checked(config: DictConfig, run_dir: Path, *, fresh: bool = False) -> Start:
-    """The checked start of a composed ``config`` in ``run_dir``.
+    """The checked start of a composed ``config`` in ``run_dir``, its directory locked.
 
     The result is kept until the next check: checking the same config for the same
-    directory again returns it without loading the checkpoint again.
+    directory again returns it without loading the checkpoint again. A start that will
+    train (not finished) takes ``run_dir``'s lock, creating the directory, on rank 0.
 
     Args:
         config: the composed config (its ``hydra`` node, if any, is left out).
@@ -168,6 +176,7 @@ def checked(config: DictConfig, run_dir: Path, *, fresh: bool = False) -> Start:
     Raises:
         ConfigError, ResumeError: as :func:`preflight`.
         OmegaConfBaseException: a value of the wrong type (the schema's check).
+        RunDirInUse: another process trains in ``run_dir``.
     """
     global _latest
     train_cfg: TrainConfig = task_config(config)
@@ -178,6 +187,8 @@ def checked(config: DictConfig, run_dir: Path, *, fresh: bool = False) -> Start:
     _latest = None  # a failed check keeps no earlier start
     recorded = recorded_without_checkpoint(cfg, run_dir, auto=train_cfg.resume == RESUME_AUTO)
     start = Start(cfg, preflight(cfg), recorded)
+    if start.finished_message() is None and launched_rank() == 0:
+        lock_run_dir(Path(shown(run_dir)))  # as shown: the path the error names
     _latest = (key, start)
     return start
 
