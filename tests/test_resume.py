@@ -173,6 +173,26 @@ def test_an_explicit_run_dir_wins_over_the_resumed_runs_own(
     assert load_checkpoint(tmp_path / "branch")["frames"] == 128
 
 
+def test_a_torn_last_line_of_metrics_is_dropped_with_a_warning(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = trained(tmp_path / "run", 128)
+    metrics = run / "metrics.csv"
+    text = metrics.read_text()
+    last = text.rstrip("\n").rsplit("\n", 1)[1]
+    torn = text[: len(text) - len(last) // 2 - 1]  # a crash while appending the last row
+    metrics.write_text(torn)
+    resumed = run_in_process(
+        [*SMOKE, "algo.max_steps=192", "resume=run"], tmp_path, monkeypatch, capsys
+    )
+    assert resumed.code == 0, resumed.stderr
+    (warning,) = [line for line in resumed.stdout.splitlines() if "torn" in line]
+    assert "metrics.csv" in warning and "WARNING" in warning
+    assert steps(run) == [64, 192]  # the torn row (128) is gone, the run continued
+    rows = metrics.read_text().splitlines()
+    assert all(len(row.split(",")) == len(rows[0].split(",")) for row in rows)
+
+
 # --- what a resume may change --------------------------------------------------------
 def test_config_differences_names_fixed_keys_only() -> None:
     stored = {

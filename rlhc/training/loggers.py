@@ -3,12 +3,13 @@
 ``metrics.csv`` has one row per summary and one column per metric (plus ``step``, the
 frame count). It is what ``rlhc.plot`` reads and what survives a resume: on resume,
 rows past the checkpoint's step are dropped, so the curve continues without a gap or
-a duplicate. TensorBoard gets the same treatment: a resumed run appends to the run's
-own ``tb/<name>/`` and hides the points past the checkpoint's step (the event files'
-``purge_step``, which torch's ``SummaryWriter`` takes and TorchRL's
-``TensorboardLogger`` does not pass on). wandb continues the same run too: its id is
-kept in the run directory's ``wandb_run_id`` file, written at the first start and
-passed back on every resume (``wandb.init(id=…, resume="allow")``).
+a duplicate, and so is a torn last line (:func:`read_rows`). TensorBoard gets the same
+treatment: a resumed run appends to the run's own ``tb/<name>/`` and hides the points
+past the checkpoint's step (the event files' ``purge_step``, which torch's
+``SummaryWriter`` takes and TorchRL's ``TensorboardLogger`` does not pass on). wandb
+continues the same run too: its id is kept in the run directory's ``wandb_run_id``
+file, written at the first start and passed back on every resume
+(``wandb.init(id=…, resume="allow")``).
 
 :class:`ProgressLines` writes a line to the ``logging`` module every tenth of the
 budget; ``rlhc.run``'s Hydra logging sends it to stdout and the run's ``run.log``.
@@ -18,6 +19,7 @@ from __future__ import annotations
 
 import csv
 import datetime
+import logging
 import math
 import os
 import re
@@ -35,6 +37,8 @@ METRICS_FILE = "metrics.csv"
 TENSORBOARD_DIR = "tb"
 #: The run directory's wandb run id (written at the first start, read on a resume).
 WANDB_RUN_ID_FILE = "wandb_run_id"
+
+log = logging.getLogger(__name__)
 
 
 def wandb_mode(requested: str) -> str:
@@ -94,9 +98,29 @@ def recorded_frames(path: Path) -> int | None:
     """
     if not path.is_file():
         return None
-    with path.open(newline="") as f:
-        steps = [row["step"] for row in csv.DictReader(f) if row.get("step")]
+    steps = [row["step"] for row in read_rows(path) if row.get("step")]
     return int(float(steps[-1])) if steps else None
+
+
+def read_rows(path: Path) -> list[dict[str, str]]:
+    """The rows of ``metrics.csv``, without a torn last line.
+
+    A row is appended whole, ending with a newline: a last line without one was cut by a
+    crash while it was written (its values may be cut too). It is dropped with a warning.
+
+    Examples:
+        >>> import tempfile
+        >>> path = Path(tempfile.mkdtemp()) / METRICS_FILE
+        >>> _ = path.write_text("step,loss\\n1000.0,0.5\\n2000.0,0.4")
+        >>> read_rows(path)
+        [{'step': '1000.0', 'loss': '0.5'}]
+    """
+    lines = path.read_text().splitlines(keepends=True)
+    if lines and not lines[-1].endswith("\n"):
+        log.warning(
+            f"{path}: dropped its torn last line {lines.pop()!r} (a crash while writing it)"
+        )
+    return list(csv.DictReader(lines))
 
 
 class CSVMetrics:
@@ -106,12 +130,11 @@ class CSVMetrics:
         self.path = path
         self.rows: list[dict[str, float]] = []
         if resume_step is not None and path.is_file():
-            with path.open(newline="") as f:
-                self.rows = [
-                    {k: float(v) for k, v in row.items() if v != ""}
-                    for row in csv.DictReader(f)
-                    if float(row["step"]) <= resume_step
-                ]
+            self.rows = [
+                {k: float(v) for k, v in row.items() if v != ""}
+                for row in read_rows(path)
+                if float(row["step"]) <= resume_step
+            ]
         self.columns: list[str] = ["step"]
         for row in self.rows:
             self.columns += [k for k in row if k not in self.columns]
