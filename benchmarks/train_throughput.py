@@ -13,8 +13,6 @@ data-parallel metric merges; checkpoints pushed past the end).
 | ``one`` | ``python -m rlhc.run`` |
 | ``data`` | ``torchrun --nproc_per_node=2 -m rlhc.run parallel=data`` |
 | ``pipeline`` | ``torchrun --nproc_per_node=2 -m rlhc.run parallel=pipeline`` |
-| ``trunk`` | ``python -m rlhc.run model.shared_trunk=true`` (discrete actions: soccer) |
-| ``trunk-pipeline`` | ``pipeline`` with ``model.shared_trunk=true`` (soccer) |
 
 Setups run one after another, round-robin over ``--repeats``, and every ratio compares
 runs of the same round (the machine is shared: a ratio within one invocation is what
@@ -90,11 +88,7 @@ SETUPS: dict[str, tuple[int, list[str]]] = {
     "one": (1, []),
     "data": (2, ["parallel=data"]),
     "pipeline": (2, ["parallel=pipeline"]),
-    "trunk": (1, ["model.shared_trunk=true"]),
-    "trunk-pipeline": (2, ["parallel=pipeline", "model.shared_trunk=true"]),
 }
-#: Setups that need discrete actions.
-DISCRETE_ONLY = ("trunk", "trunk-pipeline")
 #: Variant names the script gives itself: the code at ``--baseline`` and the working tree.
 BASELINE, CURRENT = "baseline", "current"
 VARIANT_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
@@ -662,10 +656,7 @@ def run_rounds(
     runs = []
     for round_ in range(args.repeats):
         for env in args.env:
-            discrete = env == "soccer"
             for setup in args.setups:
-                if setup in DISCRETE_ONLY and not discrete:
-                    continue
                 updates = args.updates[0] if env == "soccer" else args.updates[1]
                 for variant in variants:
                     try:

@@ -20,6 +20,7 @@ from pathlib import Path
 import torch
 import torch.distributed as dist
 from configs import load_smoke
+from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from rlhc.objectives import cut_trajectories
 from rlhc.training.distributed import broadcast_object, gather, setup, shutdown
@@ -68,7 +69,8 @@ def main(out: Path, overrides: list[str]) -> None:
 
         # A whole update on each rank's own rollout (their KLs differ): with
         # algo.target_kl the rate adapted to it must stay the same on every rank.
-        with torch.no_grad():
+        torch.manual_seed(1 + rank)
+        with torch.no_grad(), set_exploration_type(ExplorationType.RANDOM):
             own = trainer.env.rollout(32, trainer.collection_policy, break_when_any_done=False)
         kl = trainer.update(own)[f"{trainer.groups[0]}/kl_approx"]
         rates = gather(trainer.optimizer.param_groups[0]["lr"])

@@ -22,7 +22,6 @@ from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 from test_resume import snapshot
 
-from benchmarks.learning import PRESETS
 from rlhc.cli.cleanup import remove_if_unused, remove_unused_sweep
 from rlhc.cli.hydra_hooks import run_directory
 from rlhc.storage.checkpoint import load_checkpoint
@@ -91,13 +90,21 @@ def test_a_study_composes_its_game_league_shaping_budget_and_sweep(study: str) -
         assert (run.critic, run.seed, run.env.name) == (option("critic", critic), 3, env)
 
 
-def test_tennis_best_is_the_learning_benchmarks_best_preset() -> None:
-    # The study and `python -m benchmarks.learning --env tennis --preset best` train alike.
-    study = load("study=tennis_best", "critic=hierarchical", "seed=2")
-    preset = load("env=tennis", "critic=hierarchical", *PRESETS["tennis"]["best"], "seed=2")
+#: The preset each study trains.
+PRESETS = {study: ("best" if study.endswith("_best") else "paper") for study in STUDIES}
+
+
+@pytest.mark.parametrize("study", sorted(STUDIES))
+def test_a_study_trains_its_preset(study: str) -> None:
+    # A study adds critics, seeds and where its runs live; what trains is the preset's.
+    env, extended, *_ = STUDIES[study]
+    game = [f"env={env}", f"preset={PRESETS[study]}", "critic=hierarchical", "seed=2"]
+    preset = load(*game, *(["env.extended_obs=true"] if extended else []))
+    run = load(f"study={study}", "critic=hierarchical", "seed=2")
     for section in ("env", "critic", "algo", "model", "league", "shaping"):
-        assert getattr(study, section) == getattr(preset, section), section
-    assert study.checkpoint_freq == preset.checkpoint_freq
+        assert getattr(run, section) == getattr(preset, section), section
+    for key in ("checkpoint_freq", "play_freq", "eval_freq", "eval_matches"):
+        assert getattr(run, key) == getattr(preset, key), key
 
 
 def test_hierarchical_k5_consults_the_manager_every_5_decisions() -> None:

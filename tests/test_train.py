@@ -129,11 +129,6 @@ def test_a_period_crossed_between_rows_is_measured_at_the_next_row(tmp_path: Pat
     assert [row["step"] for row in rows if "play/hits_per_point" in row] == [256.0, 384.0]
 
 
-def test_lstm_is_refused_with_an_explanation(tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match="model=lstm is not supported"):
-        Trainer(load("env=tennis", "model=lstm"), tmp_path)
-
-
 def run_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "WANDB_MODE": "offline"}
     return subprocess.run(

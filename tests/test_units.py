@@ -260,26 +260,6 @@ def test_each_update_adapts_the_lr_to_its_kl_and_a_resume_keeps_it(tmp_path: Pat
 
 
 @pytest.mark.parametrize(
-    ("env", "frames", "worlds", "minibatch"),
-    [("tennis", 10240, 160, 1024), ("soccer", 2048, 16, 128)],
-)
-def test_the_frame_based_presets_rebuild_the_old_updates(
-    env: str, frames: int, worlds: int, minibatch: int
-) -> None:
-    """``table3=<env>_frames``: the updates of the study in docs/RESULTS_v1.md."""
-    cfg = load(f"env={env}", f"table3={env}_frames")
-    layout = Layout.from_config(cfg)
-    assert (layout.frames_per_batch, layout.num_envs, layout.minibatch_frames) == (
-        frames, worlds, minibatch,
-    )  # fmt: skip
-    assert not cfg.algo.anneal_entropy_coef and not cfg.algo.anneal_clip_epsilon
-    assert cfg.model.activation == "tanh"
-    if env == "tennis":
-        assert (cfg.env.decision_interval, cfg.env.fault_penalty) == (2, "nearest")
-        assert cfg.algo.max_steps == 200_000
-
-
-@pytest.mark.parametrize(
     ("override", "named"),
     [
         ("eval_freq=-5", "eval_freq=-5"),

@@ -20,5 +20,4 @@ trains the plan; this package holds what they share and what the report does.
 | :mod:`~benchmarks.reporting.environment` | package versions and the machine the report ran on |
 | :mod:`~benchmarks.reporting.blocks` | the named generated and hand-written blocks of the document |
 | :mod:`~benchmarks.reporting.document` | the whole ``RESULTS.md`` from the sections |
-| :mod:`~benchmarks.reporting.learning` | ``benchmarks/learning.py``'s means over seeds, curves and table |
 """

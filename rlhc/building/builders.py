@@ -24,12 +24,9 @@ from rlhc.errors import ConfigError
 from rlhc.modules import (
     NetworkConfig,
     make_actor,
-    make_actor_value,
     make_manager_critic,
     make_worker_critic,
-    shared_trunk_error,
 )
-from rlhc.modules.specs import action_spec
 from rlhc.objectives import HierarchicalPPOLoss, make_ppo_loss
 
 
@@ -222,8 +219,8 @@ def network_config(cfg: TrainConfig) -> NetworkConfig:
         >>> from rlhc.config.train_schema import ModelConfig, TrainConfig
         >>> model = ModelConfig(num_layers=2, hidden_size=64, activation="silu", action_dist="gaussian")
         >>> net = network_config(TrainConfig(model=model))
-        >>> net.hidden_size, net.action_dist, net.shared_trunk
-        (64, 'gaussian', False)
+        >>> net.hidden_size, net.action_dist
+        (64, 'gaussian')
     """
     # Every field of the network schema, so that a setting added to it reaches the nets.
     return NetworkConfig(
@@ -235,10 +232,7 @@ def network_config(cfg: TrainConfig) -> NetworkConfig:
 
 
 def trainable_parameters(losses: Mapping[str, torch.nn.Module]) -> list[torch.nn.Parameter]:
-    """The trainable parameters of every group's loss (actor + both critics), once each.
-
-    A shared trunk's parameters belong to the actor and the worker critic: listed once.
-    """
+    """The trainable parameters of every group's loss (actor + both critics), once each."""
     seen: dict[int, torch.nn.Parameter] = {}
     for loss in losses.values():
         for parameter in loss.parameters():
@@ -247,33 +241,10 @@ def trainable_parameters(losses: Mapping[str, torch.nn.Module]) -> list[torch.nn
     return list(seen.values())
 
 
-def check_shared_trunk(cfg: TrainConfig, env: EnvBase) -> None:
-    """Refuse ``model.shared_trunk=true`` unless every group of ``env`` acts discretely.
-
-    Checked against the env's action specs (the source of truth, for any env), when the
-    networks are built: before the first step of training.
-
-    Raises:
-        ConfigError: naming the value, the env, the group and what is allowed.
-    """
-    if not cfg.model.shared_trunk:
-        return
-    for group in group_names(env):
-        problem = shared_trunk_error(group, action_spec(env, group))
-        if problem is not None:
-            raise ConfigError(
-                f"model.shared_trunk=true on env={cfg.env.name!r}: {problem}; allowed: "
-                "false, or true on an env with discrete actions (soccer)"
-            )
-
-
 def make_agents(
     cfg: TrainConfig, env: EnvBase, *, learner_weighted: bool = False
 ) -> tuple[dict[str, torch.nn.Module], dict[str, HierarchicalPPOLoss]]:
     """One actor and one PPO loss (owning both critics) per group, on ``cfg.device``.
-
-    With ``model.shared_trunk`` the actor and the worker critic are the two operators of
-    one :func:`~rlhc.modules.make_actor_value` (the same trunk parameters).
 
     Args:
         cfg: a validated training config.
@@ -283,23 +254,15 @@ def make_agents(
             per-sample terms and no TorchRL standardisation (that function reduces the
             terms and, with ``algo.normalize_advantage``, standardises the advantage
             under the learner weight). Otherwise TorchRL's means and standardisation.
-
-    Raises:
-        ConfigError: ``model.shared_trunk=true`` on an env with continuous actions.
     """
-    check_shared_trunk(cfg, env)
     net = network_config(cfg)
     actors: dict[str, torch.nn.Module] = {}
     losses: dict[str, HierarchicalPPOLoss] = {}
     for group in group_names(env):
         # On the device before the loss is built: the loss and the collection policy
         # then hold the same parameters (a loss moved afterwards would hold copies).
-        if net.shared_trunk:
-            shared = make_actor_value(env, group, net).to(cfg.device)
-            actor, worker_critic = shared.get_policy_operator(), shared.get_value_operator()
-        else:
-            actor = make_actor(env, group, net).to(cfg.device)
-            worker_critic = make_worker_critic(env, group, net).to(cfg.device)
+        actor = make_actor(env, group, net).to(cfg.device)
+        worker_critic = make_worker_critic(env, group, net).to(cfg.device)
         manager_critic = make_manager_critic(
             env, group, net, manager_view=cfg.critic.manager_view
         ).to(cfg.device)

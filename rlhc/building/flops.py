@@ -4,9 +4,7 @@ Counted, not timed: every ``nn.Linear`` of a built network costs
 ``in_features x out_features`` multiply-adds (MAC) per agent it is applied to, and a
 MAC is 2 FLOP. Activations, biases, the distributions and the optimiser are left out
 (a few percent at the sizes of Table 3). Networks are built with
-:func:`rlhc.building.builders.make_agents`, exactly as the trainer builds them, so a
-shared trunk (``model.shared_trunk``) is counted in both the actor and the worker
-critic: each of TorchRL's two operators runs it.
+:func:`rlhc.building.builders.make_agents`, exactly as the trainer builds them.
 
 Not imported by :mod:`rlhc.modules` (it reads a whole training config); the benchmarks
 import it from here.
@@ -104,9 +102,6 @@ def network_flops(cfg: TrainConfig, env: EnvBase | None = None) -> dict[str, Gro
 
     Returns:
         ``group -> GroupFlops``.
-
-    Raises:
-        rlhc.building.builders.ConfigError: ``model.shared_trunk=true`` on continuous actions.
 
     Examples:
         >>> from rlhc.config.train_schema import compose_config

@@ -37,8 +37,6 @@ END = "<!-- end of the generated configuration table -->"
 #: Composed configs are read for these games, one column each.
 GAMES = ("tennis", "soccer")
 ABSENT = "—"
-#: Sections chosen by a config group of another name.
-GROUP_OF = {"algo": "table3"}
 
 
 def attribute_docs(cls: type) -> dict[str, str]:
@@ -157,7 +155,7 @@ def table() -> str:
             continue
         doc = attribute_docs(schema).get(item.name, "")
         if section:
-            group = GROUP_OF.get(key, key)
+            group = key
             if not (CONF / group).is_dir():
                 continue  # a section no group chooses (e.g. shaping): its settings follow
             values = [f"`{configs[g][1][group]}`" for g in GAMES]

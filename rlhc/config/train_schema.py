@@ -101,21 +101,12 @@ class PPOConfig:
         critic_coef: weight of each critic's value loss.
         max_grad_norm: global gradient-norm clip.
         normalize_advantage: standardise advantages per minibatch.
-        rescore_log_prob: before the first epoch of an update, replace the log-probability
-            stored with each action by the loss's own scoring of it under the same
-            weights (:mod:`rlhc.objectives.behaviour`): a ``TanhNormal`` stores that of
-            its pre-tanh sample and rescores the action through ``atanh``, which is off
-            where the pre-tanh value is large, so ratios start away from 1. Off by
-            default (the committed runs were trained without it); one process or
-            data-parallel only (a pipeline trains on batches of older weights).
         max_importance_ratio: the cap of the ratio ``pi / pi_old`` in the surrogate
             (TorchRL's ``ClipPPOLoss(max_importance_ratio=...)``: a capped experience
             keeps a rescaled gradient; ``null``: no cap). Above ``1 + clip_epsilon`` it
-            changes nothing but where a ratio explodes: a ``TanhNormal`` action at its
-            bound has a log-probability near -1000, which one step can move by hundreds
-            of nats; ``exp`` then overflows and the update turns the weights into NaN
-            (``long_actor_view`` seed 1 at 4.25 M court-decisions: a log ratio of 245 on
-            one experience). 100, as the PPO-EWMA reference implementation.
+            changes nothing but where a ratio explodes (``exp`` of a log-ratio of hundreds
+            of nats overflows and turns the weights into NaN). 100, as the PPO-EWMA
+            reference implementation.
         normalize_observations: running mean/std normalisation of both observations
             (the paper's ``normalize``).
         target_kl: ``null`` (off), or the KL per update that the learning rate adapts to
@@ -155,7 +146,6 @@ class PPOConfig:
     critic_coef: float = 0.5
     max_grad_norm: float = 0.5
     normalize_advantage: bool = True
-    rescore_log_prob: bool = False
     max_importance_ratio: float | None = 100.0
     normalize_observations: bool = MISSING
     target_kl: float | None = None
@@ -221,25 +211,13 @@ def adapted_lr(lr: float, kl: float, algo: PPOConfig) -> float:
 
 @dataclass
 class ModelConfig(NetworkConfig):
-    """The ``model`` section: the network schema plus the recurrent option's settings.
-
-    The network settings (``num_layers``, ``hidden_size``, ``activation``,
-    ``initial_action_scale``, ``shared_trunk``) and their checks are
-    :class:`~rlhc.modules.NetworkConfig`'s; the Table 3 values come from
-    ``conf/table3/<env>.yaml`` only.
-
-    Attributes:
-        kind: ``mlp``. (``lstm`` is recognised and refused with an explanation.)
-        memory_size: LSTM memory size (recurrent option, Table 3).
-        sequence_length: LSTM training sequence length (recurrent option, Table 3).
+    """The ``model`` section: the network schema, :class:`~rlhc.modules.NetworkConfig`
+    (its fields and their checks), with the shape a preset must set.
     """
 
     num_layers: int = MISSING
     hidden_size: int = MISSING
     activation: str = MISSING
-    kind: str = "mlp"
-    memory_size: int = MISSING
-    sequence_length: int = MISSING
 
 
 @dataclass
@@ -396,7 +374,6 @@ def register_configs() -> None:
     for name in games():
         cs.store(group="env", name=f"{name}_schema", node=game_spec(name).env_config)
     cs.store(group="critic", name="critic_schema", node=CriticConfig)
-    cs.store(group="model", name="model_schema", node=ModelConfig)
     cs.store(group="logger", name="logger_schema", node=LoggerConfig)
     cs.store(group="league", name="league_schema", node=LeagueConfig)
 

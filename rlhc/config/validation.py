@@ -26,7 +26,6 @@ from rlhc.objectives import FUSIONS
 
 __all__ = ["ConfigError", "validate", "validate_evaluate"]
 
-MODEL_KINDS = ("mlp", "lstm")
 #: Metric backends (``logger.backends``) and wandb modes (``logger.wandb_mode``).
 BACKENDS = ("csv", "tensorboard", "wandb")
 WANDB_MODES = ("auto", "online", "offline", "disabled")
@@ -53,15 +52,6 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
     if cfg.critic.manager_interval < 1:
         raise ConfigError(
             f"critic.manager_interval={cfg.critic.manager_interval}; allowed: an integer >= 1"
-        )
-    if cfg.model.kind not in MODEL_KINDS:
-        raise ConfigError(f"model.kind={cfg.model.kind!r}; allowed: {', '.join(MODEL_KINDS)}")
-    if cfg.model.kind == "lstm":
-        raise ConfigError(
-            "model=lstm is not supported: both games' observations carry positions and "
-            "velocities, so a feed-forward policy sees a Markov state, and the recurrent "
-            "option would need sequence-aware minibatching that this trainer does not do. "
-            "Use model=mlp."
         )
     positive = {
         "algo.max_steps": cfg.algo.max_steps,
@@ -162,9 +152,7 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
         raise ConfigError("; ".join(problems))
     check_logger(cfg.logger)
     check_device(cfg.device, processes)
-    check_parallel(
-        cfg.parallel, processes, cfg.device, cfg.league.active, cfg.algo.rescore_log_prob
-    )
+    check_parallel(cfg.parallel, processes, cfg.device, cfg.league.active)
     if cfg.compile and processes > 1 and cfg.parallel == "data":
         raise ConfigError(
             f"compile=true with parallel=data on {processes} processes: the loss sums its "
@@ -276,14 +264,12 @@ def backend(device: str) -> str:
     return "nccl" if torch.device(device).type == "cuda" else "gloo"
 
 
-def check_parallel(
-    mode: str, size: int, device: str, league_active: bool, rescore_log_prob: bool = False
-) -> None:
+def check_parallel(mode: str, size: int, device: str, league_active: bool) -> None:
     """Refuse a way of sharing a run over ``size`` processes that cannot work.
 
     Raises:
-        ConfigError: an unknown ``parallel``, a pipeline of other than 2 processes, with
-            a league or rescoring its batches, or no collective backend for ``device`` in
+        ConfigError: an unknown ``parallel``, a pipeline of other than 2 processes or
+            with a league, or no collective backend for ``device`` in
             this torch build.
     """
     if mode not in PARALLEL_MODES:
@@ -294,13 +280,6 @@ def check_parallel(
         raise ConfigError(
             f"parallel=pipeline with {size} processes (torchrun --nproc_per_node); "
             "allowed: exactly 2 (one learner, one collector), or parallel=data for any number"
-        )
-    if mode == "pipeline" and rescore_log_prob:
-        raise ConfigError(
-            "parallel=pipeline with algo.rescore_log_prob=true: the learner trains on "
-            "batches collected with the weights of one update earlier, so its own "
-            "scoring is not the behaviour policy's; allowed: algo.rescore_log_prob=false, "
-            "or parallel=data"
         )
     if mode == "pipeline" and league_active:
         raise ConfigError(

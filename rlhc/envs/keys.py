@@ -57,7 +57,7 @@ RESET = "_reset"
 #: Log-probability of the sampled action, written by ``ProbabilisticActor``
 #: (``<action leaf>_log_prob`` in TorchRL 0.14 when log-probs are not aggregated).
 ACTION_LOG_PROB = "action_log_prob"
-#: ``model.action_dist=tanh_normal_exact``: the pre-tanh sample an action was squashed
+#: ``model.action_dist=tanh_normal``: the pre-tanh sample an action was squashed
 #: from, stored next to it so that the loss scores exactly what was drawn; its
 #: log-probability is ``action_pretanh_log_prob``.
 PRE_TANH_ACTION = "action_pretanh"
@@ -65,9 +65,6 @@ PRE_TANH_ACTION = "action_pretanh"
 LOC = "loc"
 SCALE = "scale"
 LOGITS = "logits"
-#: The shared trunk's features ``[*B, n_g, hidden_size]`` (``model.shared_trunk``):
-#: written by the trunk, read by the policy head and the worker-value head.
-HIDDEN = "hidden"
 #: ``V_w(o_w)``: the worker critic's value ``[*B, n_g, 1]``.
 WORKER_VALUE = "worker_value"
 #: ``V_m(o_m)``: the manager critic's value ``[*B, n_g, 1]``.
@@ -98,7 +95,6 @@ __all__ = [
     "DONE",
     "DONE_KEYS",
     "EPISODE_REWARD",
-    "HIDDEN",
     "INFO",
     "LEARNER",
     "LOC",

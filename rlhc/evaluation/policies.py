@@ -31,6 +31,16 @@ from rlhc.modules import make_actor
 
 #: Env config fields that do not change what a policy observes.
 NON_OBSERVATION_OPTIONS = ("name", "num_envs", "max_cycles")
+#: Settings of teams trained before the library's clean-up (git tag ``probes-2026-12``)
+#: that no longer exist and do not change how the team plays.
+RETIRED_SETTINGS = {
+    "model": ("kind", "memory_size", "sequence_length", "loc_bound", "shared_trunk"),
+    "algo": ("rescore_log_prob",),
+}
+#: Continuous policies of those teams, by the name of the one that plays them now: a
+#: ``tanh_normal_exact`` team is today's ``tanh_normal``; an older ``tanh_normal`` team
+#: (scored through ``atanh`` in training) plays with the same network and squashing.
+RENAMED_POLICIES = {"tanh_normal_exact": "tanh_normal"}
 
 
 def checkpoint_config(state: Mapping[str, Any]) -> TrainConfig:
@@ -42,8 +52,23 @@ def checkpoint_config(state: Mapping[str, Any]) -> TrainConfig:
         ValueError: the checkpoint's game is not registered (the message lists the
             registered games).
     """
+    config = OmegaConf.create(state["config"])
+    for section, keys in RETIRED_SETTINGS.items():
+        for key in keys:
+            config[section].pop(key, None)
+    # Teams older than the setting were TanhNormal policies.
+    policy = config.model.get("action_dist") or "tanh_normal"
+    config.model.action_dist = RENAMED_POLICIES.get(policy, policy)
     schema = OmegaConf.structured(TrainConfig(env=game_spec(state["env"]).env_config()))
-    return OmegaConf.to_object(OmegaConf.merge(schema, state["config"]))  # type: ignore[return-value]
+    return OmegaConf.to_object(OmegaConf.merge(schema, config))  # type: ignore[return-value]
+
+
+def load_actor_weights(actor: torch.nn.Module, weights: Mapping[str, torch.Tensor]) -> None:
+    """``actor.load_state_dict(weights)``, also for a ``tanh_normal`` team trained before
+    its pre-tanh draw was stored: the same parameters, one module level higher."""
+    expected = list(actor.state_dict())
+    nested = {f"module.0.{key}": value for key, value in weights.items()}
+    actor.load_state_dict(nested if sorted(nested) == sorted(expected) else weights)
 
 
 def observation_options(state: Mapping[str, Any]) -> dict[str, Any]:
@@ -130,7 +155,7 @@ def restore_policy(state: Mapping[str, Any], env: EnvBase) -> RestoredPolicy:
     for group, weights in state["actors"].items():
         actor = make_actor(env, group, net)
         try:
-            actor.load_state_dict(weights)
+            load_actor_weights(actor, weights)
         except RuntimeError as error:
             raise ValueError(
                 f"checkpoint {state.get('path', '?')!r} does not fit this env: it was trained "

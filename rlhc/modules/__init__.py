@@ -9,7 +9,6 @@ from __future__ import annotations
 from rlhc.modules.actors import actor_observation_key, make_actor
 from rlhc.modules.critics import make_manager_critic, make_worker_critic
 from rlhc.modules.schemas import ACTIVATIONS, NetworkConfig
-from rlhc.modules.shared import make_actor_value, shared_trunk_error
 from rlhc.modules.specs import EnvSpecs, HasSpecs
 
 __all__ = [
@@ -19,8 +18,6 @@ __all__ = [
     "NetworkConfig",
     "actor_observation_key",
     "make_actor",
-    "make_actor_value",
     "make_manager_critic",
     "make_worker_critic",
-    "shared_trunk_error",
 ]

@@ -2,18 +2,14 @@
 
 | action spec | head | distribution |
 |---|---|---|
-| ``Bounded`` ``[..., n_g, size]`` (tennis), ``action_dist=tanh_normal`` | loc, scale (``NormalParamExtractor``; the scale is ``cfg.initial_action_scale`` for a zero output) | ``TanhNormal`` squashed into the spec's bounds |
-| the same, ``action_dist=tanh_normal_bounded`` | the same | ``TanhNormal`` with the pre-tanh mean bounded to ``cfg.loc_bound`` |
-| the same, ``action_dist=tanh_normal_exact`` | the same | :class:`PreTanhNormal` over the pre-tanh value ``u``, stored as ``(g, "action_pretanh")``; the action is ``u`` squashed into the bounds (:class:`Squash`) |
-| the same, ``action_dist=gaussian`` | loc; a learned log scale per action dimension, shared by every state and agent (``AddStateIndependentNormalScale``); both divided by ``cfg.pre_clip_range`` | ``IndependentNormal``, unsquashed: the env clips the sample |
+| ``Bounded`` ``[..., n_g, size]`` (tennis), ``action_dist=gaussian`` | loc; a learned log scale per action dimension, shared by every state and agent (``AddStateIndependentNormalScale``); both divided by ``cfg.pre_clip_range`` | ``IndependentNormal``, unsquashed: the env clips the sample |
+| the same, ``action_dist=tanh_normal`` | loc, scale (``NormalParamExtractor``; the scale is ``cfg.initial_action_scale`` for a zero output) | :class:`PreTanhNormal` over the pre-tanh value ``u``, stored as ``(g, "action_pretanh")``; the action is ``u`` squashed into the bounds (:class:`Squash`) |
 | ``Categorical`` ``[..., n_g]`` (soccer) | logits | ``torch.distributions.Categorical`` (integer actions, as the spec) |
 
 Every actor reads ``(g, "observation")``, or ``(g, "manager_observation")`` with
 ``cfg.actor_view="manager"`` (:func:`actor_observation_key`), and writes ``(g, "action")``
-and its log-probability ``(g, "action_log_prob")`` (``tanh_normal_exact``: that of its
-pre-tanh draw, ``(g, "action_pretanh_log_prob")``, the one the loss scores). With
-``cfg.shared_trunk`` a discrete actor is the policy half of
-:func:`~rlhc.modules.shared.make_actor_value` instead (same keys, other parameter names).
+and its log-probability ``(g, "action_log_prob")`` (``tanh_normal``: that of its
+pre-tanh draw, ``(g, "action_pretanh_log_prob")``, the one the loss scores).
 """
 
 from __future__ import annotations
@@ -34,7 +30,7 @@ from tensordict.nn import (
 from torch import nn
 from torch.nn import functional as F
 from torchrl.data import Bounded, Categorical, Composite
-from torchrl.modules import IndependentNormal, ProbabilisticActor, TanhNormal
+from torchrl.modules import IndependentNormal, ProbabilisticActor
 
 from rlhc.envs.keys import (
     ACTION,
@@ -47,7 +43,6 @@ from rlhc.envs.keys import (
 )
 from rlhc.modules.mlp import GroupMLP, group_mlp
 from rlhc.modules.schemas import NetworkConfig
-from rlhc.modules.shared import make_actor_value
 from rlhc.modules.specs import HasSpecs, action_spec, observation_size
 
 
@@ -73,11 +68,10 @@ def _scale_head(mlp: GroupMLP, factor: float) -> GroupMLP:
 class PreTanhNormal(IndependentNormal):
     """The Normal of a ``TanhNormal`` action's pre-tanh value ``u``, scored as drawn.
 
-    ``tanh_normal_exact`` stores ``u`` next to the squashed action, and PPO's ratio
+    ``tanh_normal`` stores ``u`` next to the squashed action, and PPO's ratio
     ``pi'(a) / pi(a)`` equals ``N'(u) / N(u)``: the tanh's Jacobian is the same factor
-    in both and cancels. A ``TanhNormal`` instead rebuilds ``u`` as ``atanh(a)``, which
-    float32 cannot once ``|u| > ~9`` (every such action is ``+-1``): there a log-ratio
-    is off by up to thousands of nats.
+    in both and cancels. (TorchRL's ``TanhNormal`` rebuilds ``u`` as ``atanh(a)``,
+    which float32 cannot once ``|u| > ~9``: every such action is ``+-1``.)
 
     The entropy is that of the squashed action, as the bonus should see it: the
     Normal's closed form plus a one-sample (reparametrised) estimate of
@@ -118,7 +112,7 @@ class Squash(nn.Module):
 def scored_policy(actor: TensorDictModuleBase) -> ProbabilisticTensorDictSequential:
     """The part of a :func:`make_actor` actor whose distribution the loss scores.
 
-    The actor itself, but for ``tanh_normal_exact``, whose actor draws the pre-tanh
+    The actor itself, but for ``tanh_normal``, whose actor draws the pre-tanh
     value and then squashes it: the loss scores the draw.
     """
     if isinstance(actor, (ProbabilisticTensorDictSequential, ProbabilisticTensorDictModule)):
@@ -156,12 +150,7 @@ def _continuous_head(
     # biased_softplus_b maps a zero output to scale b: the initial exploration noise.
     mlp = _scale_head(group_mlp(n_inputs, 2 * size, n_agents, cfg), cfg.head_init_scale)
     extractor = NormalParamExtractor(scale_mapping=f"biased_softplus_{cfg.initial_action_scale}")
-    kwargs: dict[str, Any] = {}
-    if cfg.action_dist == "tanh_normal_bounded":
-        kwargs = {"tanh_loc": True, "upscale": cfg.loc_bound}
-    if cfg.action_dist == "tanh_normal_exact":
-        return nn.Sequential(mlp, extractor), PreTanhNormal, kwargs
-    return nn.Sequential(mlp, extractor), TanhNormal, kwargs
+    return nn.Sequential(mlp, extractor), PreTanhNormal, {}
 
 
 def actor_observation_key(group: str, cfg: NetworkConfig) -> tuple[str, str]:
@@ -183,21 +172,17 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModul
             observation the actor reads (:func:`actor_observation_key`) and
             ``(group, "action")`` specs.
         group: the agent group, e.g. ``"racket"``.
-        cfg: the MLP shape; with ``cfg.shared_trunk`` the policy operator of
-            :func:`~rlhc.modules.shared.make_actor_value` (its own trunk: to share one
-            with the worker critic, build both from one ``make_actor_value``).
+        cfg: the MLP shape and the policy's parametrisation.
 
     Returns:
-        A ``ProbabilisticActor`` (with ``cfg.shared_trunk``: TorchRL's policy operator,
-        trunk + head) reading :func:`actor_observation_key` and writing
+        A ``ProbabilisticActor`` reading :func:`actor_observation_key` and writing
         ``(group, "action")`` and ``(group, "action_log_prob")``; for
-        ``tanh_normal_exact`` a ``TensorDictSequential`` of the ``ProbabilisticActor``
+        ``tanh_normal`` a ``TensorDictSequential`` of the ``ProbabilisticActor``
         of the pre-tanh value (``(group, "action_pretanh")`` and its log-probability:
         :func:`scored_policy`) and the :class:`Squash` writing ``(group, "action")``.
 
     Raises:
         TypeError: the action spec is neither ``Bounded`` nor ``Categorical``.
-        ValueError: ``cfg.shared_trunk`` with an action spec that is not ``Categorical``.
 
     Examples:
         >>> import torch
@@ -213,10 +198,6 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModul
         >>> actor(td)["racket", "action"].shape
         torch.Size([5, 4, 3])
     """
-    if cfg.shared_trunk:
-        policy = make_actor_value(env, group, cfg).get_policy_operator()
-        assert isinstance(policy, ProbabilisticTensorDictSequential)
-        return policy
     observation_key = actor_observation_key(group, cfg)
     n_agents, n_inputs = observation_size(env, group, manager=cfg.actor_view == "manager")
     spec = action_spec(env, group)
@@ -225,9 +206,6 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModul
     if isinstance(spec, Bounded):
         size = int(spec.shape[-1])
         net, distribution, kwargs = _continuous_head(n_inputs, size, n_agents, cfg)
-        if distribution is TanhNormal:
-            kwargs["low"] = _per_agent_bound(spec.space.low, size, "low")
-            kwargs["high"] = _per_agent_bound(spec.space.high, size, "high")
         params = TensorDictModule(
             net, in_keys=[observation_key], out_keys=[(group, LOC), (group, SCALE)]
         )

@@ -27,10 +27,6 @@ def make_worker_critic(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorD
     Returns:
         A ``TensorDictModule`` mapping ``[*B, n_g, d_w]`` to ``[*B, n_g, 1]``.
 
-    Raises:
-        ValueError: ``cfg.shared_trunk``: this critic's trunk is the actor's, so both
-            come from one :func:`~rlhc.modules.make_actor_value`.
-
     Examples:
         >>> import torch
         >>> from tensordict import TensorDict
@@ -42,12 +38,6 @@ def make_worker_critic(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorD
         >>> critic(td)["racket", "worker_value"].shape
         torch.Size([5, 4, 1])
     """
-    if cfg.shared_trunk:
-        raise ValueError(
-            "shared_trunk=True: the worker critic shares the actor's trunk; build both "
-            "with make_actor_value(env, group, cfg) (get_policy_operator(), "
-            "get_value_operator())"
-        )
     n_agents, n_inputs = observation_size(env, group)
     return TensorDictModule(
         group_mlp(n_inputs, 1, n_agents, cfg),

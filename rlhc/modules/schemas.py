@@ -1,6 +1,6 @@
 """The network schema: the training config's ``model`` section extends it.
 
-:class:`rlhc.config.train_schema.ModelConfig` is this schema plus the recurrent options, so the
+:class:`rlhc.config.train_schema.ModelConfig` is this schema with the shape left to a preset, so the
 networks and the config share one definition of every network setting (and of its
 check: :meth:`NetworkConfig.__post_init__`).
 """
@@ -14,7 +14,7 @@ from typing import Any
 from omegaconf import MISSING
 from torch import nn
 
-from rlhc.errors import ConfigError, allowed
+from rlhc.errors import allowed
 
 #: Activation names accepted in a config, mapped to their ``torch.nn`` classes.
 ACTIVATIONS: dict[str, type[nn.Module]] = {
@@ -28,31 +28,19 @@ ACTIVATIONS: dict[str, type[nn.Module]] = {
 #: Policy parametrisations of continuous actions (``model.action_dist``); discrete
 #: actions are always a ``Categorical`` over the network's logits.
 #:
-#: - ``tanh_normal``: a Normal with a per-state scale, squashed into the action bounds
-#:   by tanh (TorchRL's ``TanhNormal``). The stored action is the squashed sample, so
-#:   its log-probability is rebuilt through atanh, which breaks once the pre-tanh mean
-#:   saturates (at loc = 12, scale = 0.05 it scores -13,505 instead of 72.6).
-#: - ``tanh_normal_bounded``: the same with the pre-tanh mean bounded to
-#:   ``[-loc_bound, loc_bound]`` (TorchRL's ``tanh_loc``), which keeps the atanh in
-#:   float32's range.
-#: - ``gaussian``: ML-Agents 0.5's continuous policy (the trainer the paper patched): a
+#: - ``gaussian`` (default): the policy of ML-Agents 0.5, the trainer the paper used. A
 #:   Normal whose log scale is a learned parameter per action dimension, independent of
-#:   the state (initially ``initial_action_scale``); no squashing, the env clips the
-#:   sample to the bounds, and the stored action is the sample itself, so it is scored
-#:   exactly; the entropy is analytic. ML-Agents samples ``u ~ N(mu, sigma)`` with
-#:   ``sigma = 1`` at first and plays ``clip(u, -3, 3) / 3``: here ``pre_clip_range=3``
-#:   (the same distribution, parametrised in action units: ``loc = mu / 3``,
+#:   the state; no squashing: the env clips the sample to the bounds, the stored action
+#:   is the sample itself (scored exactly) and the entropy is analytic. ML-Agents draws
+#:   ``u ~ N(mu, sigma)`` with ``sigma = 1`` at first and plays ``clip(u, -3, 3) / 3``:
+#:   here ``pre_clip_range=3`` (the same distribution in action units: ``loc = mu / 3``,
 #:   ``scale = sigma / 3``).
-#: - ``tanh_normal_exact``: ``tanh_normal``'s policy (per-state scale, tanh squashing)
-#:   with its pre-tanh sample stored next to the action and scored by the loss, so the
-#:   ratio is exact at any saturation (the tanh's Jacobian cancels in it); its entropy is
-#:   the Normal's closed form plus a one-sample estimate of the squashing's log-Jacobian.
-ACTION_DISTRIBUTIONS: tuple[str, ...] = (
-    "tanh_normal",
-    "tanh_normal_bounded",
-    "tanh_normal_exact",
-    "gaussian",
-)
+#: - ``tanh_normal``: a Normal with a per-state scale whose sample ``u`` is squashed into
+#:   the bounds by tanh. ``u`` is stored next to the action and scored by the loss, so
+#:   PPO's ratio is exact at any saturation (the tanh's Jacobian cancels in it); the
+#:   entropy is the Normal's closed form plus a one-sample estimate of the squashing's
+#:   log-Jacobian.
+ACTION_DISTRIBUTIONS: tuple[str, ...] = ("gaussian", "tanh_normal")
 
 #: What the actor reads (``model.actor_view``): ``worker``, the worker observation
 #: ``(g, "observation")`` (the paper's policy); ``manager``, the manager observation
@@ -74,44 +62,23 @@ class NetworkConfig:
         hidden_size: units per hidden layer (``>= 1``).
         activation: one of :data:`ACTIVATIONS` (``silu`` is ML-Agents 0.5's swish).
         action_dist: continuous actions: the policy's parametrisation, one of
-            :data:`ACTION_DISTRIBUTIONS` (``tanh_normal``: per-state scale, tanh
-            squashing; ``tanh_normal_bounded``: the same with the pre-tanh mean bounded
-            to ``loc_bound``; ``tanh_normal_exact``: the same policy as ``tanh_normal``
-            with its pre-tanh sample stored and scored, so that a saturated action's
-            ratio is exact; ``gaussian``: ML-Agents 0.5's state-free learned scale, no
-            squashing, the env clips). Ignored by discrete actions.
-        initial_action_scale: continuous actions: the policy's scale (before the tanh
-            squashing) at initialisation (``> 0``): for ``tanh_normal*`` the scale of a
-            zero network output, for ``gaussian`` the initial value of the learned
-            scale (ML-Agents 0.5: 1). 0.5 by measurement for ``tanh_normal`` (see the
-            README): the shot window is narrow, and a scale of 1 buries its aim in noise.
+            :data:`ACTION_DISTRIBUTIONS`. Ignored by discrete actions.
+        initial_action_scale: continuous actions: the policy's scale at initialisation
+            (``> 0``): for ``gaussian`` the initial value of the learned scale in units of
+            ``pre_clip_range`` (ML-Agents 0.5: 1), for ``tanh_normal`` the pre-tanh scale
+            of a zero network output.
         head_init_scale: continuous actions: the policy head's initial weights are
             multiplied by this (``> 0``; ML-Agents 0.5 initialises its mean head at
             0.01, so every action starts near 0).
-        loc_bound: ``tanh_normal_bounded`` only: the bound of the pre-tanh mean
-            (``> 0``; TorchRL's ``upscale``).
         pre_clip_range: ``gaussian`` only: the network's mean and
             ``initial_action_scale`` are in units where the action bounds are
             ``±pre_clip_range``; the action is the sample divided by it (``> 0``;
             ML-Agents 0.5: 3, so its initial scale of 1 is a third of the action range;
             1: the network works in action units).
-        shared_trunk: discrete actions (soccer) only: the actor and the worker critic
-            of a group share their hidden layers, with a policy head and a value head
-            on top (ML-Agents 0.5's discrete PPO network, which the paper's soccer
-            brains used), built together by :func:`~rlhc.modules.make_actor_value`;
-            the manager critic stays a separate network. Tennis (continuous actions)
-            refuses it. Default false: sharing saves no compute here (each of TorchRL's
-            two operators runs the trunk: the same FLOP per world-decision, and the
-            same update time within noise, by measurement), every preset and result
-            of this project used separate networks, and its learning effect rests on
-            one seed so far (soccer PPO, 2 processes: 27-59-14 against the scripted
-            team, separate networks 4-50-46; one-process separate-network seeds
-            30-64-6 and 49-41-10; README "Do trained teams play?").
         actor_view: the observation the actor reads, one of :data:`ACTOR_VIEWS`
             (``worker``: the paper's; ``manager``: the manager critic's view, in tennis
             the worker's 8 values and the ball relative to the racket). The critics
-            keep theirs (``critic.manager_view``). Not with ``shared_trunk`` (the trunk
-            reads the worker observation).
+            keep theirs (``critic.manager_view``).
 
     Examples:
         >>> from rlhc.modules import NetworkConfig
@@ -122,12 +89,10 @@ class NetworkConfig:
     num_layers: int = 2
     hidden_size: int = 128
     activation: str = "tanh"
-    action_dist: str = "tanh_normal"
-    initial_action_scale: float = 0.5
-    head_init_scale: float = 1.0
-    loc_bound: float = 5.0
-    pre_clip_range: float = 1.0
-    shared_trunk: bool = False
+    action_dist: str = "gaussian"
+    initial_action_scale: float = 1.0
+    head_init_scale: float = 0.01
+    pre_clip_range: float = 3.0
     actor_view: str = "worker"
 
     def __post_init__(self) -> None:
@@ -140,7 +105,7 @@ class NetworkConfig:
         scale = self.initial_action_scale
         if _given(scale) and not (math.isfinite(scale) and scale > 0):
             raise allowed("model.initial_action_scale", scale, "a finite number in (0, inf)")
-        for name in ("head_init_scale", "loc_bound", "pre_clip_range"):
+        for name in ("head_init_scale", "pre_clip_range"):
             value = getattr(self, name)
             if _given(value) and not (math.isfinite(value) and value > 0):
                 raise allowed(f"model.{name}", value, "a finite number in (0, inf)")
@@ -150,12 +115,6 @@ class NetworkConfig:
             raise allowed("model.activation", self.activation, ", ".join(ACTIVATIONS))
         if _given(self.actor_view) and self.actor_view not in ACTOR_VIEWS:
             raise allowed("model.actor_view", self.actor_view, ", ".join(ACTOR_VIEWS))
-        if self.shared_trunk is True and self.actor_view == "manager":
-            raise ConfigError(
-                "model.actor_view=manager cannot be combined with model.shared_trunk=true: "
-                "the shared trunk reads the worker observation (allowed: actor_view=worker, "
-                "or shared_trunk=false)"
-            )
 
     @property
     def activation_class(self) -> type[nn.Module]:

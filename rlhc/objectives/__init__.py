@@ -6,8 +6,7 @@ Built on TorchRL's public API only (``tests/test_public_api.py`` checks it):
 :class:`HierarchicalPPOLoss` is ``ClipPPOLoss`` with its critic hook trained on both.
 :func:`cut_trajectories` cuts a batch at the time horizon before the estimate, and
 :func:`learner_weighted_loss` reduces a loss's per-sample terms under the learner
-weight (a league world's opponents weigh 0), and :func:`rescore_log_prob` makes the
-stored behaviour log-probabilities the loss's own scoring (``algo.rescore_log_prob``).
+weight (a league world's opponents weigh 0).
 
 Examples:
     >>> from rlhc.objectives import HierarchicalValueEstimator, make_ppo_loss
@@ -15,7 +14,6 @@ Examples:
 
 from __future__ import annotations
 
-from rlhc.objectives.behaviour import rescore_log_prob
 from rlhc.objectives.functional import FUSIONS, fuse_values, manager_consulted_mask
 from rlhc.objectives.ppo import LOSS_KEYS, HierarchicalPPOLoss, make_ppo_loss
 from rlhc.objectives.trajectories import cut_trajectories
@@ -34,5 +32,4 @@ __all__ = [
     "learner_weighted_loss",
     "make_ppo_loss",
     "manager_consulted_mask",
-    "rescore_log_prob",
 ]

@@ -27,7 +27,7 @@ from torch import Tensor
 from torchrl.objectives import AUTO_LOSS_MASK_KEYS, ClipPPOLoss, ValueEstimators
 from torchrl.objectives.utils import distance_loss
 
-from rlhc.modules import keys
+from rlhc.envs import keys
 from rlhc.modules.actors import scored_policy
 from rlhc.objectives.value import HierarchicalValueEstimator
 
@@ -441,7 +441,7 @@ def make_ppo_loss(
 
     Args:
         actor: the group's policy (:func:`~rlhc.modules.make_actor`); the loss scores
-            its :func:`~rlhc.modules.actors.scored_policy` (``tanh_normal_exact``: the
+            its :func:`~rlhc.modules.actors.scored_policy` (``tanh_normal``: the
             pre-tanh draw).
         worker_critic: ``V_w`` (:func:`~rlhc.modules.make_worker_critic`).
         manager_critic: ``V_m`` (:func:`~rlhc.modules.make_manager_critic`).

@@ -25,7 +25,7 @@ from tensordict.utils import NestedKey
 from torch import Tensor
 from torchrl.objectives.value import GAE
 
-from rlhc.modules import keys
+from rlhc.envs import keys
 from rlhc.objectives._data import as_tuple, broadcast_to_value, require, resolve_time_dim
 from rlhc.objectives.functional import (
     check_fusion,

@@ -48,7 +48,6 @@ from rlhc.objectives import (
     WeightedLoss,
     cut_trajectories,
     learner_weighted_loss,
-    rescore_log_prob,
 )
 from rlhc.storage.checkpoint import CHECKPOINT_DIR, save_checkpoint, seed_everything
 from rlhc.storage.final_team import save_team
@@ -284,8 +283,6 @@ class Trainer:
         cut_trajectories(batch, self.groups, layout.time_horizon)
         with torch.no_grad():
             for group, loss in self.losses.items():
-                if algo.rescore_log_prob:
-                    rescore_log_prob(loss, batch)
                 loss.value_estimator(batch)
                 for key in (STATE_VALUE, WORKER_VALUE, MANAGER_VALUE, MANAGER_SELECTED):
                     if (group, key) in batch.keys(include_nested=True):  # PPO: no manager

@@ -252,25 +252,3 @@ def test_the_command_line(checkpoints: dict[str, Path], capsys: pytest.CaptureFi
     assert main([str(checkpoints["soccer"]), "--worlds", "2", "--decisions", "20"]) == 0
     printed = json.loads(capsys.readouterr().out)
     assert printed["worlds"] == 2 and printed["vs_scripted"]["episodes"] >= 2
-
-
-def test_the_benchmark_writes_json_and_a_table(
-    checkpoints: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture
-) -> None:
-    from benchmarks.soccer_play import header
-    from benchmarks.soccer_play import main as benchmark
-
-    out = tmp_path / "play.json"
-    team = str(checkpoints["soccer"])
-    assert benchmark([team, "--out", str(out), "--worlds", "2", "--decisions", "20"]) == 0
-    written = json.loads(out.read_text())
-    assert written["command"].startswith("python -m benchmarks.soccer_play")
-    assert set(written["teams"]) == {team} and "self_play" in written["teams"][team]
-    assert "scripted_vs_scripted" in written["scripted"]
-    printed = capsys.readouterr().out
-    columns = header(self_play=True).splitlines()[0].count("|")
-    name = "/".join(Path(team).parts[-3:])
-    rows = [line for line in printed.splitlines() if line.startswith(f"| {name} |")]
-    assert rows and all(line.count("|") == columns for line in rows)
-    assert benchmark(["--report", str(out)]) == 0
-    assert capsys.readouterr().out.strip() == printed.strip().split("\n", 1)[1]

@@ -28,9 +28,15 @@ from rlhc.objectives import LOSS_KEYS, make_ppo_loss
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "objectives"))
 from rlhc_synthetic import D_WORKER, GROUP, make_batch, make_specs
 
-CFG = NetworkConfig(num_layers=2, hidden_size=16)
+CFG = NetworkConfig(
+    num_layers=2,
+    hidden_size=16,
+    action_dist="tanh_normal",
+    initial_action_scale=0.5,
+    head_init_scale=1.0,
+)
 GAUSSIAN = dataclasses.replace(
-    CFG, action_dist="gaussian", initial_action_scale=1.0, head_init_scale=0.01
+    CFG, action_dist="gaussian", initial_action_scale=1.0, head_init_scale=0.01, pre_clip_range=1.0
 )
 
 
@@ -94,44 +100,28 @@ def test_gaussian_actions_are_not_squashed() -> None:
 
 @pytest.mark.parametrize("action_dist", ACTION_DISTRIBUTIONS)
 def test_stored_actions_score_as_they_were_sampled(action_dist: str) -> None:
-    # The Gaussian scores its stored sample exactly. A TanhNormal scores the sample it
-    # drew through the cached pre-tanh value, and a stored action through atanh: equal
-    # up to float32 rounding while the mean is not saturated.
+    # Both score what they stored exactly: the Gaussian its sample, the TanhNormal its
+    # pre-tanh draw (the squashed action is never rescored through atanh).
     torch.manual_seed(0)
     actor = make_actor(make_specs(), GROUP, dataclasses.replace(CFG, action_dist=action_dist))
-    draw = scored_policy(actor)  # the actor, or tanh_normal_exact's pre-tanh draw
+    draw = scored_policy(actor)  # the actor, or tanh_normal's pre-tanh draw
     (sample,), (log_prob,) = draw.dist_sample_keys, draw.log_prob_keys
     with torch.no_grad():
         td = actor(observations(scale=5.0))
         rescored = draw.get_dist(td).log_prob(td[sample])
     assert action_dist == "gaussian" or td[GROUP, "action"].abs().max() <= 1.0  # squashed
-    if action_dist in ("gaussian", "tanh_normal_exact"):
-        assert torch.equal(rescored, td[log_prob])
-    else:
-        assert_close(rescored, td[GROUP, "action_log_prob"], atol=1e-3, rtol=0)
-
-
-def test_bounded_tanh_normal_scores_saturated_actions_close_to_their_preimage() -> None:
-    # TanhNormal rebuilds the pre-tanh sample through atanh of the stored action; once
-    # the mean saturates that is not the sample that was drawn (loc 12, scale 0.05:
-    # thousands of nats off). Bounding the mean (TorchRL's tanh_loc, upscale 5) keeps
-    # the atanh in float32's range.
-    torch.manual_seed(0)
-    loc, scale = torch.full((1000, 3), 12.0), torch.full((1000, 3), 0.05)
-    plain = TanhNormal(loc, scale, low=-1.0, high=1.0)
-    action, exact = plain.sample_and_log_prob()
-    assert (plain.log_prob(action) - exact).abs().max() > 1000
-    bounded = TanhNormal(loc, scale, low=-1.0, high=1.0, tanh_loc=True, upscale=5.0)
-    action, exact = bounded.sample_and_log_prob()
-    assert (bounded.log_prob(action) - exact).abs().max() < 0.05
+    assert torch.equal(rescored, td[log_prob])
 
 
 def test_the_exact_tanh_normal_scores_saturated_actions_as_drawn() -> None:
-    # Where TanhNormal's atanh is thousands of nats off (loc 12, scale 0.05: see
-    # above), the pre-tanh draw scores exactly, and its ratio is TanhNormal's:
+    # Where TorchRL's TanhNormal rescores an action through atanh thousands of nats off
+    # (loc 12, scale 0.05), the pre-tanh draw scores exactly, and its ratio is TanhNormal's:
     # log pi'(a) - log pi(a) = log N'(u) - log N(u), the Jacobian cancelling.
     torch.manual_seed(0)
     loc, scale = torch.full((1000, 3), 12.0), torch.full((1000, 3), 0.05)
+    plain = TanhNormal(loc, scale, low=-1.0, high=1.0)
+    action, drawn = plain.sample_and_log_prob()
+    assert (plain.log_prob(action) - drawn).abs().max() > 1000
     exact = PreTanhNormal(loc, scale)
     u = exact.sample()
     assert torch.equal(exact.log_prob(u), exact.log_prob(u.clone()))
@@ -173,10 +163,7 @@ def test_an_update_with_zero_learning_rate_has_zero_kl(action_dist: str) -> None
         optimizer.zero_grad()
         sum(out[key] for key in LOSS_KEYS).backward()
         optimizer.step()
-        if action_dist in ("gaussian", "tanh_normal_exact"):
-            assert out["kl_approx"].item() == 0.0
-        else:  # atanh's rounding (see above)
-            assert abs(out["kl_approx"].item()) < 1e-6
+        assert out["kl_approx"].item() == 0.0
         assert out["clip_fraction"].item() == 0.0
 
 
@@ -199,12 +186,12 @@ def test_actor_state_round_trips(action_dist: str, tmp_path: Path) -> None:
 
 
 def test_bad_settings_name_the_value() -> None:
-    with pytest.raises(ValueError, match=r"model.action_dist='beta'; allowed: tanh_normal"):
+    with pytest.raises(ValueError, match=r"model.action_dist='beta'; allowed: gaussian"):
         NetworkConfig(action_dist="beta")
     with pytest.raises(ValueError, match=r"model.head_init_scale=0.0; allowed"):
         NetworkConfig(head_init_scale=0.0)
-    with pytest.raises(ValueError, match=r"model.loc_bound=-1.0; allowed"):
-        NetworkConfig(loc_bound=-1.0)
+    with pytest.raises(ValueError, match=r"model.pre_clip_range=-1.0; allowed"):
+        NetworkConfig(pre_clip_range=-1.0)
 
 
 def test_the_training_config_reaches_the_networks() -> None:
@@ -218,8 +205,8 @@ def test_the_training_config_reaches_the_networks() -> None:
         activation="silu",
         action_dist="gaussian",
         initial_action_scale=0.7,
-        head_init_scale=0.01,
-        loc_bound=3.0,
+        head_init_scale=0.02,
+        pre_clip_range=2.0,
     )
     built = network_config(TrainConfig(model=model))
     for field in dataclasses.fields(NetworkConfig):

@@ -401,7 +401,7 @@ def test_policy_diagnostics_are_torchrls_where_every_experience_is_the_learners(
     with torch.no_grad():
         loss.value_estimator(data)
         for parameter in loss.actor_network.parameters():
-            parameter.add_(0.05 * torch.randn_like(parameter))
+            parameter.add_(0.2 * torch.randn_like(parameter))
     flat = data.reshape(-1)
     flat[GROUP, "learner"] = torch.ones(*flat[GROUP, "advantage"].shape, dtype=torch.bool)
     weight = learner_weight(flat, (GROUP, "learner"), flat[GROUP, "advantage"])

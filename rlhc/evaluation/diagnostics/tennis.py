@@ -18,14 +18,6 @@ The numbers are per decision of every racket, over ``worlds x decisions``
 racket-decisions per mode. ``python -m rlhc.evaluation.diagnostics <run dir or .pt>``
 prints them as JSON.
 
-:func:`tracking_probe` asks the policy one controlled question instead: a ball falls
-(:data:`PROBE_BALL`) at each of a grid of places in the racket's half, the racket stands
-at each of a grid of places; where does the mode action move it? A team that runs to
-the ball moves with the ball's offset (the scripted team: a gain of 0.32 per metre,
-saturated, and towards the ball at 85 % of the grid points, the others being balls
-it leaves to its front racket); one that plays a routine moves the same wherever the
-ball is (gain near 0).
-
 Examples:
     >>> from rlhc.evaluation.diagnostics.tennis import NEAR_BALL, ACTION_NAMES
     >>> NEAR_BALL, ACTION_NAMES
@@ -34,19 +26,16 @@ Examples:
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
-import numpy as np
 import torch
-from tensordict import TensorDict, TensorDictBase
+from tensordict import TensorDictBase
 from tensordict.nn import InteractionType, set_interaction_type
 
 from rlhc.envs import make_env
-from rlhc.envs.keys import ACTION, ENDED_PREFIX, INFO, MANAGER_OBSERVATION, NEXT, OBSERVATION, SCALE
-from rlhc.envs.tennis.game import HOME_X
-from rlhc.envs.tennis.observations import LENGTH_SCALE, TEAM_SIGN, observe_rackets
-from rlhc.envs.tennis.physics import CourtGeometry
+from rlhc.envs.keys import ACTION, ENDED_PREFIX, INFO, NEXT, OBSERVATION, SCALE
+from rlhc.envs.tennis.observations import LENGTH_SCALE
 from rlhc.envs.tennis.rules import POINT_ENDINGS
 from rlhc.evaluation.policies import RestoredPolicy, observation_options, restore_policy
 
@@ -162,84 +151,6 @@ def tennis_diagnostics(
         saturated = (action.abs() >= 0.99).float().reshape(-1, len(ACTION_NAMES))
         result["saturated"] = _per_dimension(saturated.mean(0))
     return result
-
-
-#: The probe's ball (team frame, metres and m/s): 2 m up, falling at 3 m/s, no
-#: horizontal speed, so that it comes down where it is.
-PROBE_BALL = {"y": 2.0, "vx": 0.0, "vy": -3.0}
-#: The probe's grid (team-frame x, metres) of ball and racket places, the racket's half.
-PROBE_X = (-5.5, -4.5, -3.5, -2.5, -1.5)
-
-
-def tracking_probe(
-    policy: Callable[[TensorDictBase], Mapping[str, torch.Tensor]],
-    *,
-    extended_obs: bool = False,
-    ball_x: Sequence[float] = PROBE_X,
-    racket_x: Sequence[float] = PROBE_X,
-) -> dict[str, Any]:
-    """The mode move action of a racket on a falling ball, over a grid of places.
-
-    Racket 0 (team A's back racket) stands on the ground at each of ``racket_x``, with
-    the ball of :data:`PROBE_BALL` above each of ``ball_x``; the three other rackets
-    stand at their serve positions, nothing moves. The observations are the game's own
-    (:func:`~rlhc.envs.tennis.observations.observe_rackets`), raw.
-
-    Args:
-        policy: ``tensordict -> {"racket": actions}`` on raw observations, e.g. a
-            restored team (:func:`~rlhc.evaluation.policies.restore_policy`).
-        extended_obs: the team's observation option.
-        ball_x: team-frame x of the ball (metres; negative: the racket's half).
-        racket_x: team-frame x of the racket.
-
-    Returns:
-        ``move``: ``[len(ball_x)][len(racket_x)]`` mode move actions (``+``: towards the
-        net); ``gain``: the least-squares slope of the move on the ball's offset (ball
-        minus racket, per metre); ``toward``: the share of grid points with the ball at
-        least 1 m away whose move points at it; ``ball_x``, ``racket_x``.
-
-    Examples:
-        >>> from rlhc.envs.tennis.scripted import ScriptedTennisPolicy
-        >>> scripted = ScriptedTennisPolicy()  # reads raw worker observations
-        >>> def team(td):
-        ...     return {"racket": torch.from_numpy(scripted(td["racket", "observation"].numpy()))}
-        >>> probe = tracking_probe(team)
-        >>> round(probe["gain"], 2), probe["toward"]
-        (0.32, 0.85)
-    """
-    bx, rx = np.meshgrid(np.asarray(ball_x, float), np.asarray(racket_x, float), indexing="ij")
-    n = bx.size
-    ball = np.stack([bx.ravel(), np.full(n, PROBE_BALL["y"])], axis=-1)
-    ball_velocity = np.tile([PROBE_BALL["vx"], PROBE_BALL["vy"]], (n, 1))
-    home = np.concatenate([HOME_X, HOME_X]) * TEAM_SIGN
-    rackets = np.zeros((n, 4, 2))
-    rackets[..., 0] = home
-    rackets[:, 0, 0] = rx.ravel()
-    rackets[..., 1] = CourtGeometry().racket_ground_y  # standing
-    worker, manager = observe_rackets(
-        ball, ball_velocity, rackets, np.zeros((n, 4, 2)), extended_obs
-    )
-    td = TensorDict(
-        {
-            (GROUP, OBSERVATION): torch.from_numpy(worker),
-            (GROUP, MANAGER_OBSERVATION): torch.from_numpy(manager),
-        },
-        [n],
-    )
-    with set_interaction_type(InteractionType.DETERMINISTIC), torch.no_grad():
-        move = policy(td)[GROUP][:, 0, 0].clamp(-1.0, 1.0).numpy().reshape(bx.shape)
-    offset = bx - rx
-    centred = offset - offset.mean()
-    gain = float((centred * (move - move.mean())).sum() / (centred**2).sum())
-    far = np.abs(offset) >= 1.0
-    toward = float((np.sign(move[far]) == np.sign(offset[far])).mean())
-    return {
-        "ball_x": [float(x) for x in ball_x],
-        "racket_x": [float(x) for x in racket_x],
-        "move": move.round(4).tolist(),
-        "gain": gain,
-        "toward": toward,
-    }
 
 
 def _per_dimension(values: torch.Tensor | None) -> dict[str, float]:
