@@ -3,5 +3,5 @@
 A package so that its scripts import each other and :mod:`benchmarks.reporting`
 without touching ``sys.path``: run the ones that do as modules from the repository root,
 e.g. ``python -m benchmarks.reproduce``, ``python -m benchmarks.report`` and
-``python -m benchmarks.learning``.
+``python -m benchmarks.policy_summary``.
 """
