@@ -124,3 +124,11 @@ def only_child(directory: Path) -> Path:
     """The one entry of ``directory`` (a run directory Hydra named)."""
     (child,) = directory.iterdir()
     return child
+
+
+def snapshot(directory: Path) -> dict[str, tuple[int, int]]:
+    """Every file under ``directory`` with its size and modification time."""
+    return {
+        str(p.relative_to(directory)): (p.lstat().st_size, p.lstat().st_mtime_ns)
+        for p in sorted(directory.rglob("*"))
+    }

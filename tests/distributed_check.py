@@ -1,4 +1,4 @@
-"""Run by ``tests/test_distributed.py`` under ``torchrun --nproc_per_node=2``.
+"""Run by ``tests/training/test_distributed.py`` under ``torchrun --nproc_per_node=2``.
 
 Every rank holds the same minibatch (rank 0's, broadcast). Each computes the gradient a
 single process computes on the whole minibatch, then the data-parallel gradient from its

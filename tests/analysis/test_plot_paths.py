@@ -13,7 +13,7 @@ import pytest
 from rlhc import plot
 from rlhc.analysis.curves import find_runs, split_run_paths
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PNG = b"\x89PNG\r\n\x1a\n"
 
 

@@ -16,11 +16,10 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from cli_runs import run_in_process, run_subprocess, steps
+from cli_runs import run_in_process, run_subprocess, snapshot, steps
 from configs import CONF, load, options
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
-from test_resume import snapshot
 
 from rlhc.cli.cleanup import remove_if_unused, remove_unused_sweep
 from rlhc.cli.hydra_hooks import run_directory

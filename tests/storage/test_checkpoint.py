@@ -25,7 +25,7 @@ from rlhc.storage.checkpoint import (
     save_checkpoint,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def step_file(run: Path, frames: int) -> Path:

@@ -17,6 +17,7 @@ import torch
 from cli_runs import (
     read_metrics,
     run_in_process,
+    snapshot,
     steps,
     tensorboard_steps,
 )
@@ -37,7 +38,7 @@ from rlhc.storage.checkpoint import (
 from rlhc.training import training_state
 from rlhc.training.trainer import Trainer
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
+CONF = Path(__file__).resolve().parents[2] / "conf"
 #: 64-frame updates (smoke: 256 experiences / 4 rackets), a summary and a checkpoint each.
 SMOKE = ["env=tennis", "experiment=smoke", "logger.summary_freq=64", "checkpoint_freq=64"]
 TIMING = ("env_steps_per_s", "train_frames_per_s", "wall_time")
@@ -54,14 +55,6 @@ def trained(run: Path, frames: int) -> Path:
     """A smoke run in ``run`` trained to ``frames``, a checkpoint every update."""
     Trainer(load(f"algo.max_steps={frames}"), run).train()
     return run
-
-
-def snapshot(directory: Path) -> dict[str, tuple[int, int]]:
-    """Every file under ``directory`` with its size and modification time."""
-    return {
-        str(p.relative_to(directory)): (p.lstat().st_size, p.lstat().st_mtime_ns)
-        for p in sorted(directory.rglob("*"))
-    }
 
 
 # --- where a resumed run writes ------------------------------------------------------

@@ -1,4 +1,5 @@
-"""Every config composes and validates; bad overrides fail before anything is built."""
+"""Every config composes and validates; bad overrides fail before anything is built;
+experiment presets keep the logger choice."""
 
 from __future__ import annotations
 
@@ -106,6 +107,25 @@ def test_smoke_experiment_overrides_table_3() -> None:
     cfg = load("env=soccer", "experiment=smoke")
     assert cfg.algo.max_steps < 5000
     assert cfg.env.num_envs == 4
+
+
+# --- experiment presets compose with the other groups: never override the logger choice
+def test_smoke_keeps_wandb_among_the_backends() -> None:
+    cfg = load("env=tennis", "experiment=smoke", "logger=wandb")
+    assert "wandb" in cfg.logger.backends
+    assert cfg.logger.summary_freq == 256  # the preset still shortens the logging period
+
+
+@pytest.mark.parametrize("logger", options("logger"))
+@pytest.mark.parametrize("experiment", options("experiment"))
+def test_every_experiment_keeps_every_logger_choice(experiment: str, logger: str) -> None:
+    chosen = load("env=tennis", f"logger={logger}")
+    combined = load("env=tennis", f"experiment={experiment}", f"logger={logger}")
+    assert combined.logger.backends == chosen.logger.backends
+    assert (combined.logger.wandb_project, combined.logger.wandb_mode) == (
+        chosen.logger.wandb_project,
+        chosen.logger.wandb_mode,
+    )
 
 
 @pytest.mark.parametrize(
