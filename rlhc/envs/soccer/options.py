@@ -75,7 +75,7 @@ class SoccerOptions:
             ML-Agents' SoccerTwos, 5 frames of 0.02 s). Five frames of 0.02 s here score
             more (random play 0.49 of episodes instead of 0.33), mostly because a kick is
             checked once per frame (SoccerTwos kicks at any physics step), at ~1.7x the
-            cost per decision: see ``benchmarks/README.md``.
+            cost per decision.
         striker_time_reward: added to each striker's reward every decision (paper:
             -0.001, an incentive to score quickly).
         goalie_time_reward: added to each goalie's reward every decision (paper: +0.001,
