@@ -1,4 +1,5 @@
-"""rlhc uses only the public API of TorchRL and tensordict.
+"""rlhc uses only the public API of TorchRL and tensordict: losses, value estimators,
+modules, environments, transforms and collectors.
 
 A private name (leading underscore) of either library may change in any release, which
 is why the ``torchrl`` pin used to be narrow. This test reads every module under
@@ -6,8 +7,8 @@ is why the ``torchrl`` pin used to be narrow. This test reads every module under
 
 * an import of a private module or name, e.g. ``from torchrl.x import _y``,
   ``import torchrl._utils``, ``from torchrl._utils import logger``;
-* a use of a private attribute of TorchRL's losses, value estimators or tensordict's
-  modules: any underscore name that these classes define (read from the installed
+* a use of a private attribute of TorchRL's losses, value estimators, environments,
+  transforms, collectors or tensordict's modules: any underscore name that these classes define (read from the installed
   classes, so the list follows the library), plus a deny-list of private instance
   attributes and helpers (``_has_critic``, ``_value_estimator``, ``critic_network_params``,
   ``_self_set_grad_enabled``, ...), whether read, called, overridden by a ``def`` or
@@ -34,6 +35,8 @@ from tensordict.nn import (
     TensorDictModuleBase,
     TensorDictSequential,
 )
+from torchrl.collectors import Collector
+from torchrl.envs import Compose, EnvBase, Transform, TransformedEnv, VecNormV2
 from torchrl.objectives import ClipPPOLoss, LossModule, PPOLoss
 from torchrl.objectives.value import GAE, MultiAgentGAE, ValueEstimatorBase
 
@@ -45,6 +48,9 @@ RLHC_ROOT = Path(rlhc.__file__).parent
 #: Private instance attributes and module-level helpers of TorchRL that ``dir()`` of
 #: the classes does not show, with why each one must not be used.
 DENY_LIST: dict[str, str] = {
+    "_loc": "VecNormV2's private running mean (use loc / get_extra_state)",
+    "_var": "VecNormV2's private running second moment (use scale / get_extra_state)",
+    "_count": "VecNormV2's private observation count (use get_extra_state)",
     "_has_critic": "PPOLoss's private critic switch (set critic_coeff instead)",
     "_value_estimator": "LossModule's private slot (use make_value_estimator / value_estimator)",
     "_tensor_keys": "private key store (use set_keys / tensor_keys)",
@@ -72,10 +78,31 @@ LIBRARY_CLASSES = (
     TensorDictModule,
     TensorDictSequential,
     ProbabilisticTensorDictSequential,
+    EnvBase,
+    TransformedEnv,
+    Transform,
+    Compose,
+    VecNormV2,
+    Collector,
 )
 
-#: Documented extension points that happen to start with an underscore.
-ALLOWED_DEFINITIONS = frozenset({"_AcceptedKeys"})
+#: Documented extension points that happen to start with an underscore: a loss's
+#: configurable keys, and the hooks that TorchRL's docs tell a custom environment
+#: (``_reset``, ``_step``, ``_set_seed``) and a custom transform (``_apply_transform``,
+#: ``_call``, ``_reset``, ``_step``, their inverses) to define. Defining them is allowed;
+#: reading or calling them is not.
+ALLOWED_DEFINITIONS = frozenset(
+    {
+        "_AcceptedKeys",
+        "_reset",
+        "_step",
+        "_set_seed",
+        "_apply_transform",
+        "_inv_apply_transform",
+        "_call",
+        "_inv_call",
+    }
+)
 
 
 def library_private_names() -> dict[str, str]:
@@ -201,6 +228,11 @@ def test_the_private_names_include_those_rlhc_once_used() -> None:
         ),
         ("@_self_set_grad_enabled\ndef f(self): pass", "uses _self_set_grad_enabled"),
         ("class K(ClipPPOLoss._AcceptedKeys): pass", "uses ._AcceptedKeys"),
+        ("class N(VecNormV2):\n    def _norm(self, data): pass", "overrides _norm"),
+        ("scale = norm._get_loc_scale()", "uses ._get_loc_scale"),
+        ("loc = norm._loc", "uses ._loc"),
+        ("out = env.transform._step(td, next_td)", "uses ._step"),
+        ("collector._increment_frames(n)", "uses ._increment_frames"),
     ],
 )
 def test_the_checker_flags(source: str, expected: str) -> None:
@@ -217,6 +249,9 @@ def test_the_checker_flags(source: str, expected: str) -> None:
         "self._critics = (worker, manager)",
         "from rlhc.objectives._data import require",
         "loss.make_value_estimator(estimator)",
+        "class T(Transform):\n    def _step(self, td, next_td): return next_td",
+        "class E(EnvBase):\n    def _set_seed(self, seed): pass",
+        "state = transform.get_extra_state()",
     ],
 )
 def test_the_checker_passes_public_use(source: str) -> None:

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -189,22 +188,11 @@ def with_training_transforms(cfg: TrainConfig, base: EnvBase) -> TransformedEnv:
         )
     if cfg.algo.normalize_observations:
         keys = [(g, key) for g in groups for key in (OBSERVATION, MANAGER_OBSERVATION)]
-        # Statistics are shared by the worlds (reduce_batch_dims) and kept per agent slot;
-        # with mirrored observations and a shared policy both teams' slots converge alike.
-        # VecNormV2 whose variance cannot go negative (a feature that stops varying).
-        transforms.append(
-            SafeVecNorm(
-                in_keys=keys,
-                decay=cfg.algo.observation_decay,
-                reduce_batch_dims=True,
-                clip=cfg.algo.observation_clip,
-            )
-        )
-    with warnings.catch_warnings():
-        # VecNormV2 (and SafeVecNorm) call batched containers "experimental": the batched path is the one
-        # this project runs and tests (tests/test_train.py, tests/evaluation).
-        warnings.filterwarnings("ignore", "Support of (Safe)?VecNorm", UserWarning)
-        return TransformedEnv(base, Compose(*transforms))
+        # Statistics are shared by the worlds and kept per agent slot; with mirrored
+        # observations and a shared policy both teams' slots converge alike.
+        norm = SafeVecNorm(keys, decay=cfg.algo.observation_decay, clip=cfg.algo.observation_clip)
+        transforms.append(norm)
+    return TransformedEnv(base, Compose(*transforms))
 
 
 def group_names(env: EnvBase) -> list[str]:

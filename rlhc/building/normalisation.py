@@ -1,125 +1,207 @@
-"""Observation normalisation whose scale cannot turn NaN, at the cost of a few tensor ops.
+"""Running observation normalisation whose scale cannot turn NaN, with an optional bound.
 
-TorchRL's ``VecNormV2`` keeps running first and second moments and takes the variance as
-their difference, ``E[x^2] - E[x]^2``. For a feature that stops varying (a racket that
-no longer jumps: its height is the ground's at every decision) the two are equal up to
-float32 rounding, the difference can come out negative, and its square root is NaN:
-every observation of that feature, and every action computed from it, is NaN
-(``long_actor_view_exact`` seed 1 at 7.6 M court-decisions, one racket slot's height).
-:class:`SafeVecNorm` raises the second moment to at least the squared mean before
-the scale is read, so the variance is never below 0 and the scale never below ``eps``;
-elsewhere it normalises exactly as ``VecNormV2`` (same state dict, same numbers).
+:class:`SafeVecNorm` is a TorchRL :class:`~torchrl.envs.Transform` that keeps, per
+observation key, running first and second moments shared by the worlds of a batched
+environment (one moving-average step per call, weighted as ``n`` single observations
+would be) and normalises with them, as TorchRL's ``VecNormV2(reduce_batch_dims=True)``
+does, with the same state dict. Two things differ:
 
-``VecNormV2`` does its arithmetic on whole TensorDicts (a dozen TensorDict operations
-per call, each building a new container); the environment calls it after every step
-and every partial reset, and in tennis, where points end every few decisions, that was
-a fifth of a training loop's time (benchmarks/README "Observation normalisation").
-The training configuration's path (running statistics shared by the worlds, decaying
-or cumulative) is therefore computed key by key on plain tensors, in ``VecNormV2``'s
-order of operations, so its results are equal to the bit; every other configuration is
-left to ``VecNormV2``.
+* The variance is taken as ``max(E[x^2], E[x]^2) - E[x]^2``: for a feature that stops
+  varying (a racket that no longer jumps) the two moments are equal up to float32
+  rounding and ``VecNormV2``'s difference can come out negative, its square root NaN,
+  and with it every action computed from that observation. Here the scale is then
+  ``eps`` and the feature normalises to 0.
+* ``clip`` bounds the normalised values to ``[-clip, clip]``, as ML-Agents 0.5 does (at 5).
 
-``clip`` bounds the normalised observations to ``[-clip, clip]``, as ML-Agents 0.5 does
-(at 5); ``VecNormV2`` has no such bound.
+The arithmetic runs key by key on plain tensors: the environment calls the transform
+after every step and every partial reset, where TensorDict-wide operations would cost
+more than the arithmetic.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import torch
-from tensordict import NestedKey, TensorDictBase
-from torchrl.envs import VecNormV2
+from tensordict import NestedKey, TensorDict, TensorDictBase
+from torchrl.data import Bounded, Composite, Unbounded
+from torchrl.envs import Transform
+
+#: Separator of the flattened keys of the state (``"loc" SEP "group" SEP "observation"``),
+#: VecNormV2's: normalisers saved by either load into the other.
+SEP = ".-|-."
 
 
-def _second_moment_at_least_squared_mean(
-    var: TensorDictBase, loc: TensorDictBase
-) -> TensorDictBase:
-    return var.apply(lambda second, mean: torch.maximum(second, mean.pow(2)), loc)
-
-
-class SafeVecNorm(VecNormV2):
-    """``VecNormV2`` whose variance is clamped at 0, its output optionally bounded.
+class SafeVecNorm(Transform):
+    """Running mean/std normalisation of ``in_keys``, in place, NaN-free, optionally bounded.
 
     Args:
-        *args: ``VecNormV2``'s.
-        clip: ``None``, or the bound of the normalised values (see the module docstring).
-        **kwargs: ``VecNormV2``'s.
+        in_keys: the observation keys to normalise (written back to the same keys).
+        decay: the weight kept by the running moments per observation; ``1.0`` keeps
+            cumulative averages.
+        eps: the smallest scale.
+        clip: ``None``, or the bound of the normalised values.
+
+    Raises:
+        ValueError: ``decay`` outside ``(0, 1]`` or ``clip`` not ``None`` or ``> 0``.
 
     Examples:
-        >>> import torch
         >>> from tensordict import TensorDict
         >>> norm = SafeVecNorm(in_keys=["x"], decay=1.0)
-        >>> loc = TensorDict({"x": torch.tensor([0.1167])}, [])
-        >>> var = TensorDict({"x": torch.tensor([0.1167**2 - 1e-9])}, [])  # rounding
-        >>> norm._norm(TensorDict({"x": torch.tensor([0.1167])}, []), loc, var, 1)["x"]
-        tensor([0.])
+        >>> constant = TensorDict({"x": torch.full((4, 1), 0.1167)}, [4])
+        >>> norm.normalise(norm.update(constant))["x"].flatten()  # VecNormV2: NaN
+        tensor([0., 0., 0., 0.])
     """
 
-    def __init__(self, *args: Any, clip: float | None = None, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
+    def __init__(
+        self,
+        in_keys: Sequence[NestedKey],
+        *,
+        decay: float = 0.9999,
+        eps: float = 1e-4,
+        clip: float | None = None,
+    ) -> None:
+        if not 0 < decay <= 1:
+            raise ValueError(f"decay={decay}; allowed: a number in (0, 1]")
         if clip is not None and not clip > 0:
             raise ValueError(f"clip={clip}; allowed: None or a number > 0")
+        super().__init__(in_keys=list(in_keys), out_keys=list(in_keys))
+        self.decay = decay
+        self.eps = eps
         self.clip = clip
+        self.frozen = False
+        self.register_buffer("initialized", torch.zeros((), dtype=torch.bool))
+        #: ``loc`` (``E[x]``), ``var`` (``E[x^2]``) and ``count`` per key, once data came.
+        self.moments: TensorDict | None = None
 
-    def _per_key(self, data: TensorDictBase) -> bool:
-        """Whether ``data`` takes the plain-tensor path (the training configuration's)."""
-        return (
-            self.stateful
-            and self.reduce_batch_dims
-            and data.ndim > 0
-            and not self._cast_int_to_float
-            and self.out_keys[: len(self.in_keys)] == self.in_keys
-        )
+    # --- TorchRL's transform hooks --------------------------------------------------
+    def _step(self, tensordict: TensorDictBase, next_tensordict: TensorDictBase) -> TensorDictBase:
+        return self.normalise(self.update(next_tensordict))
 
-    def _stateful_update(self, data: Any) -> None:
-        if self.frozen or not self._per_key(data):
-            return super()._stateful_update(data)
-        # VecNormV2's reduced-batch update: one moving-average step per call, weighted
-        # as n single observations would be (1 - decay ** n; cumulative: n / count).
+    def _reset(
+        self, tensordict: TensorDictBase, tensordict_reset: TensorDictBase
+    ) -> TensorDictBase:
+        return self.normalise(self.update(tensordict_reset))
+
+    def transform_observation_spec(self, observation_spec: Composite) -> Composite:
+        for key in self.in_keys:
+            spec = observation_spec.get(key, None)
+            if isinstance(spec, Bounded):  # normalised values are not in the raw bounds
+                observation_spec.set(
+                    key, Unbounded(spec.shape, device=spec.device, dtype=spec.dtype)
+                )
+        return observation_spec
+
+    # --- statistics ------------------------------------------------------------------
+    def freeze(self) -> SafeVecNorm:
+        """Stop updating the statistics (normalisation goes on)."""
+        self.frozen = True
+        return self
+
+    def unfreeze(self) -> SafeVecNorm:
+        """Update the statistics again."""
+        self.frozen = False
+        return self
+
+    def update(self, data: TensorDictBase) -> TensorDictBase:
+        """One moving-average step of the moments of every ``in_keys`` entry ``data``
+        holds, over its batch dimensions (a partial reset may hold only some keys).
+
+        Returns:
+            ``data``.
+        """
+        batch = tuple(range(data.batch_dims))
+        for key in self._present(data):
+            if self.moments is None or ("loc", *_tuple(key)) not in self.moments.keys(True):
+                self._initialise(key, data.get(key), batch)
+        if self.frozen or self.moments is None:
+            return data
         n = data.numel()
-        cumulative = self.decay == 1.0
         weight = 1 - self.decay**n
-        batch_dims = tuple(range(data.ndim))
-        loc, var, count = self._loc, self._var, self._count
-        keys = list(data.keys(True, True))
-        if not self.missing_tolerance:
-            keys = list(loc.keys(True, True))
+        for key in self._present(data):
+            value = data.get(key)
+            seen = self.moments.get(("count", *_tuple(key))).add_(n)
+            step = n / seen if self.decay == 1.0 else weight
+            mean = self.moments.get(("loc", *_tuple(key)))
+            second = self.moments.get(("var", *_tuple(key)))
+            batch_mean = value.mean(dim=batch) if batch else value
+            batch_second = value.pow(2).mean(dim=batch) if batch else value.pow(2)
+            mean.lerp_(batch_mean.to(mean.device), step)
+            second.lerp_(batch_second.to(second.device), step)
+        return data
+
+    def normalise(self, data: TensorDictBase) -> TensorDictBase:
+        """``data`` with every ``in_keys`` entry it holds normalised (and clipped), in place."""
+        keys = self._present(data)
+        if self.moments is None or not keys:
+            return data
+        loc, scale = self.loc, self.scale
         for key in keys:
             value = data.get(key)
-            seen = count.get(key).add_(n)
-            step = n / seen if cumulative else weight
-            mean = loc.get(key)
-            second = var.get(key)
-            mean.lerp_(value.mean(dim=batch_dims).to(mean.device), step)
-            second.lerp_(value.pow(2).mean(dim=batch_dims).to(second.device), step)
-        return None
+            normalised = (value - loc.get(key).to(value.device)) / scale.get(key).to(value.device)
+            if self.clip is not None:
+                normalised = normalised.clamp(-self.clip, self.clip)
+            data.set(key, normalised)
+        return data
 
-    def _norm(self, data: Any, loc: Any, var: Any, count: Any) -> Any:
-        if not (isinstance(data, TensorDictBase) and self._per_key(data)):
-            safe = _second_moment_at_least_squared_mean(var, loc)
-            normalised = super()._norm(data, loc, safe, count)
-            if self.clip is None:
-                return normalised
-            return normalised.apply(lambda value: value.clamp(-self.clip, self.clip))
+    @property
+    def loc(self) -> TensorDictBase:
+        """The mean of each key (bias-corrected under a decay)."""
+        return self._affine()[0]
+
+    @property
+    def scale(self) -> TensorDictBase:
+        """The standard deviation of each key, at least ``eps`` (bias-corrected)."""
+        return self._affine()[1]
+
+    def _affine(self) -> tuple[TensorDictBase, TensorDictBase]:
+        if self.moments is None:
+            raise RuntimeError("SafeVecNorm has seen no data yet: no statistics to read")
+        loc, scale = TensorDict(), TensorDict()
         log_decay = math.log(self.decay) if self.decay < 1.0 else None
-
-        def normalise(key: NestedKey, value: torch.Tensor) -> torch.Tensor:
-            mean, second = loc.get(key), var.get(key)
+        for key in self.moments["loc"].keys(True, True):
+            mean = self.moments.get(("loc", *_tuple(key)))
+            second = self.moments.get(("var", *_tuple(key)))
             variance = torch.maximum(second, mean.pow(2)) - mean.pow(2)
             if log_decay is None:  # cumulative averages need no bias correction
-                normalised = (value - mean) / variance.sqrt().clamp_min(self.eps)
+                loc.set(key, mean)
+                scale.set(key, variance.sqrt().clamp_min(self.eps))
             else:
-                bias_correction = (1 - (count.get(key) * log_decay).exp()).to(value.dtype)
-                scale = (variance / bias_correction).sqrt().clamp_min(self.eps)
-                normalised = (value - mean / bias_correction) / scale
-            return normalised if self.clip is None else normalised.clamp(-self.clip, self.clip)
+                count = self.moments.get(("count", *_tuple(key)))
+                correction = (1 - (count * log_decay).exp()).to(mean.dtype)
+                loc.set(key, mean / correction)
+                scale.set(key, (variance / correction).sqrt().clamp_min(self.eps))
+        return loc, scale
 
-        return data.named_apply(normalise, nested_keys=True)
+    def _present(self, data: TensorDictBase) -> list[NestedKey]:
+        return [key for key in self.in_keys if data.get(key, None) is not None]
 
-    def _get_loc_scale(self, loc_only: bool = False) -> tuple:
-        if self._loc is not None and self._var is not None:
-            # In place: the running second moment is never truly below the squared mean.
-            self._var.update_(_second_moment_at_least_squared_mean(self._var, self._loc))
-        return super()._get_loc_scale(loc_only)
+    def _initialise(self, key: NestedKey, value: torch.Tensor, batch: tuple[int, ...]) -> None:
+        """Zero moments for ``key``, shaped as one observation of ``value``."""
+        if self.moments is None:
+            self.moments = TensorDict()
+        shape, device = value.shape[len(batch) :], value.device
+        dtype = value.dtype if value.dtype.is_floating_point else torch.get_default_dtype()
+        for name in ("loc", "var"):
+            self.moments.set((name, *_tuple(key)), torch.zeros(shape, dtype=dtype, device=device))
+        self.moments.set(("count", *_tuple(key)), torch.zeros((), dtype=torch.int64, device=device))
+        self.initialized.fill_(True)
+
+    # --- state dict (VecNormV2's layout) -----------------------------------------------
+    def get_extra_state(self) -> dict[str, torch.Tensor]:
+        if self.moments is None:
+            return {}
+        return self.moments.flatten_keys(SEP).to_dict()
+
+    def set_extra_state(self, state: dict[str, Any]) -> None:
+        if state:
+            self.moments = TensorDict(state).unflatten_keys(SEP)
+
+    def extra_repr(self) -> str:
+        return f"keys={self.in_keys}, decay={self.decay}, eps={self.eps}, clip={self.clip}"
+
+
+def _tuple(key: NestedKey) -> tuple[str, ...]:
+    return (key,) if isinstance(key, str) else tuple(key)

@@ -2,7 +2,7 @@
 
 A checkpoint (:meth:`rlhc.training.trainer.Trainer.state`) stores the resolved training config,
 each group's actor weights and the state of the training env's transforms. When
-``algo.normalize_observations`` was on, that state holds a TorchRL ``VecNormV2`` over
+``algo.normalize_observations`` was on, that state holds a :class:`~rlhc.building.normalisation.SafeVecNorm` over
 ``(g, "observation")`` and ``(g, "manager_observation")``; the actors were trained on
 normalised observations, so a restored policy must see its inputs (whichever of the two
 its actor reads, ``model.actor_view``) through the *same* statistics, frozen. The
@@ -21,9 +21,10 @@ import torch
 from omegaconf import OmegaConf
 from tensordict import NestedKey, TensorDictBase
 from tensordict.nn import TensorDictModuleBase
-from torchrl.envs import EnvBase, Transform, VecNormV2
+from torchrl.envs import EnvBase, Transform
 
 from rlhc.building.builders import make_training_env, network_config
+from rlhc.building.normalisation import SafeVecNorm
 from rlhc.config.train_schema import TrainConfig
 from rlhc.envs.keys import ACTION
 from rlhc.envs.registry import game_spec
@@ -175,14 +176,14 @@ def restore_policy(state: Mapping[str, Any], env: EnvBase) -> RestoredPolicy:
 def normaliser_statistics(
     transform: Transform, actors: Mapping[str, torch.nn.Module]
 ) -> tuple[dict[str, torch.Tensor] | None, dict[str, torch.Tensor] | None]:
-    """Copies of the ``loc`` and ``scale`` of the ``VecNormV2`` in ``transform`` for the
+    """Copies of the ``loc`` and ``scale`` of the observation normaliser in ``transform`` for the
     observation each group's actor reads (``(None, None)`` when ``transform`` has none:
     observations are not normalised).
 
     Statistics that never saw data (a checkpoint saved before the first step) have a
     zero bias correction and come out NaN: those entries are left unnormalised.
     """
-    normaliser = next((t for t in transform if isinstance(t, VecNormV2)), None)
+    normaliser = next((t for t in transform if isinstance(t, SafeVecNorm)), None)
     if normaliser is None:
         return None, None
     keys = {g: observation_key(actor) for g, actor in actors.items()}

@@ -152,10 +152,10 @@ def test_checkpoints_with_different_observations_cannot_meet(tmp_path: Path) -> 
 def test_restored_policy_sees_what_the_trained_actor_saw(
     view: str, checkpoints: dict[str, Path], request: pytest.FixtureRequest
 ) -> None:
-    from torchrl.envs import VecNormV2
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
     from rlhc.building.builders import make_training_env
+    from rlhc.building.normalisation import SafeVecNorm
     from rlhc.evaluation.policies import checkpoint_config, restore_policy
     from rlhc.storage.checkpoint import load_checkpoint
 
@@ -165,7 +165,7 @@ def test_restored_policy_sees_what_the_trained_actor_saw(
     state = load_checkpoint(run)
     training_env = make_training_env(checkpoint_config(state), num_envs=3, seed=1)
     training_env.transform.load_state_dict(state["env_transform"])
-    next(t for t in training_env.transform if isinstance(t, VecNormV2)).freeze()
+    next(t for t in training_env.transform if isinstance(t, SafeVecNorm)).freeze()
     normalised = training_env.reset()
     game = training_env.base_env.game.observe()["racket"]  # the same state, raw
     raw = game.manager_observation if view == "manager" else game.observation
