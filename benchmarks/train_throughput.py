@@ -1,4 +1,4 @@
-"""Training throughput at Table 3 on 1 and 2 processes, against the arithmetic ceiling.
+"""Training throughput at Table 3 on 1 and 2 processes, against plain torch and the ceiling.
 
 A frame is one world-decision. Each *setup* is a real training run, started as a user
 starts it (``python -m rlhc.run`` or ``torchrun --standalone --nproc_per_node=2 -m
@@ -13,14 +13,22 @@ data-parallel metric merges; checkpoints pushed past the end).
 | ``one`` | ``python -m rlhc.run`` |
 | ``data`` | ``torchrun --nproc_per_node=2 -m rlhc.run parallel=data`` |
 | ``pipeline`` | ``torchrun --nproc_per_node=2 -m rlhc.run parallel=pipeline`` |
+| ``reference`` | none: :mod:`benchmarks.reference_loop`, in this process |
+
+``reference`` is what the same arithmetic costs without a framework: a CleanRL-style
+loop in plain torch (no TensorDict, TorchRL or Hydra) with the trainer's networks,
+rollout, minibatches, epochs and optimiser, calling the game's batched numpy step; the
+working tree's loop whatever the variant, timed after one warm-up update. It prints its
+honesty checks: its minibatch step against a bare ``nn.Linear`` loop of its networks,
+and its counted FLOP per frame against the trainer's.
 
 Setups run one after another, round-robin over ``--repeats``, and every ratio compares
 runs of the same round (the machine is shared: a ratio within one invocation is what
-this measures). The ceiling: fp32 GEMM GFLOP/s on one core, measured in the same
-invocation at the shapes of the configured minibatch, times the processes, divided by
-the FLOP per frame of the configured networks (:func:`rlhc.building.flops.training_flops`:
-the actors to collect, the value estimator and ``epochs`` forward-backward passes of the
-loss to train).
+this measures): ``vs one`` and ``vs ref`` (``ratio_vs_one``, ``ratio_vs_reference``).
+The ceiling: fp32 GEMM GFLOP/s on one core, measured in the same invocation at the
+shapes of the configured minibatch, times the processes, divided by the FLOP per frame
+of the configured networks (:func:`rlhc.building.flops.training_flops`: the actors to
+collect, the value estimator and ``epochs`` forward-backward passes of the loss to train).
 
 Before and after a change, in one invocation: ``--baseline REV`` adds the *variant*
 ``baseline``, the code at the git revision ``REV`` (checked out once with ``git worktree
@@ -37,12 +45,11 @@ Markdown table is printed and the JSON gets a ``comparison`` key; ``summary`` th
 ``current``'s runs only. ``--overrides`` are appended to every run of every variant, the
 baseline's included: a preset compared before and after a change.
 
-``--wrapper`` adds the older comparison with the straightforward TorchRL route (the
-game's PettingZoo env in ``PettingZooWrapper`` inside a ``SerialEnv``, same trainer, in
-this process); ``--breakdown`` summarises a py-spy profile instead.
+``--breakdown`` summarises a py-spy profile instead.
 
 Examples:
     python benchmarks/train_throughput.py --env soccer tennis --repeats 2
+    python benchmarks/train_throughput.py --env soccer --setups one reference --repeats 3
     python benchmarks/train_throughput.py --env soccer --setups one pipeline --updates 21 22
     python benchmarks/train_throughput.py --env tennis --setups one --repeats 3 \\
         --baseline HEAD~3 --out /tmp/before_after.json
@@ -50,7 +57,6 @@ Examples:
         --variant ppo=critic=ppo --variant big="model.hidden_size=256 algo.epochs=4"
     python benchmarks/train_throughput.py --env tennis --setups one --repeats 3 \\
         --baseline HEAD~3 --overrides study=tennis_best resume=null
-    python benchmarks/train_throughput.py --env soccer --setups one --wrapper
     py-spy record --format raw -o soccer.txt -- python benchmarks/train_throughput.py \\
         --env soccer --setups one --updates 41 22
     python benchmarks/train_throughput.py --breakdown soccer.txt
@@ -72,7 +78,6 @@ import subprocess
 import sys
 import tempfile
 import time
-import warnings
 from collections import Counter
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -81,13 +86,13 @@ from typing import Any
 
 RESULTS = Path(__file__).parent / "results" / "train_throughput.json"
 REPO = Path(__file__).resolve().parents[1]
-CONF_DIR = REPO / "conf"
 TORCHRUN = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2"]
 #: setup -> (processes, overrides)
 SETUPS: dict[str, tuple[int, list[str]]] = {
     "one": (1, []),
     "data": (2, ["parallel=data"]),
     "pipeline": (2, ["parallel=pipeline"]),
+    "reference": (1, []),  # not rlhc.run: benchmarks/reference_loop.py, in this process
 }
 #: Variant names the script gives itself: the code at ``--baseline`` and the working tree.
 BASELINE, CURRENT = "baseline", "current"
@@ -191,28 +196,9 @@ def baseline_worktree(commit: str) -> Iterator[Path]:
 
 def compose_config(env: str, critic: str, overrides: list[str]) -> Any:
     """The training config ``python -m rlhc.run env=… critic=… <overrides>`` would use."""
-    from hydra import compose, initialize_config_dir
-    from hydra.core.global_hydra import GlobalHydra
-    from omegaconf import OmegaConf
+    from rlhc.config.train_schema import compose_config as compose
 
-    from rlhc.config.train_schema import register_configs
-
-    register_configs()
-    GlobalHydra.instance().clear()
-    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-        cfg = compose(config_name="train", overrides=[f"env={env}", f"critic={critic}", *overrides])
-    return OmegaConf.to_object(cfg)
-
-
-def bench_overrides(iterations: int, frames_per_batch: int) -> list[str]:
-    """Table 3 untouched; only the run length, the log backends and checkpoints change."""
-    return [
-        f"algo.max_steps={iterations * frames_per_batch}",
-        "logger.backends=[csv]",
-        "logger.progress=false",
-        f"logger.summary_freq={frames_per_batch}",  # one metrics row per iteration
-        "checkpoint_freq=1000000000",  # one checkpoint, at the end, outside the timing
-    ]
+    return compose(f"env={env}", f"critic={critic}", *overrides)
 
 
 # --- processes -------------------------------------------------------------------------
@@ -224,7 +210,8 @@ def run_setup(
     variant_overrides: Sequence[str] = (),
     source: Path | None = None,
 ) -> dict[str, Any]:
-    """Train ``updates`` updates with ``setup``; frames/s from the first logged row on.
+    """Train ``updates`` updates with ``setup``; frames/s from the first logged row on
+    (``reference``: after its first update).
 
     ``variant_overrides`` are appended to the command (the last value of a key wins);
     with ``source``, the run starts in that tree with it on ``PYTHONPATH``, so that it
@@ -233,6 +220,14 @@ def run_setup(
     from rlhc.building.builders import Layout
 
     processes, extra = SETUPS[setup]
+    if setup == "reference":  # this process, this tree: `benchmarks` importable as a script
+        if str(REPO) not in sys.path:
+            sys.path.append(str(REPO))
+        from benchmarks.reference_loop import run_reference
+
+        cfg = compose_config(env, critic, list(variant_overrides))
+        return {"env": env, "critic": critic, "setup": setup, "processes": processes,
+                **run_reference(cfg, updates)}  # fmt: skip
     layout = Layout.from_config(compose_config(env, critic, list(variant_overrides)))
     overrides = [f"env={env}", f"critic={critic}", *extra,
                  *run_overrides(updates * layout.frames_per_batch), *variant_overrides]  # fmt: skip
@@ -318,180 +313,6 @@ def ceiling(
             "ceiling_frames_per_s_one_core": gflops * 1e9 / per_frame}  # fmt: skip
 
 
-# --- the TorchRL wrapper route -----------------------------------------------------------
-def make_wrapper_env(cfg: Any, num_envs: int) -> Any:
-    """``SerialEnv`` of ``PettingZooWrapper``\\ s, transformed to the TensorDict contract."""
-    import importlib
-
-    from torchrl.envs import (
-        Compose,
-        PettingZooWrapper,
-        RenameTransform,
-        SerialEnv,
-        StepCounter,
-        TransformedEnv,
-    )
-
-    from rlhc.building.builders import with_training_transforms
-
-    game_module = importlib.import_module(f"rlhc.envs.{cfg.env.name}")
-    options = cfg.env.game_options()
-
-    def make_one(seed: int) -> Any:
-        return PettingZooWrapper(
-            game_module.parallel_env(seed=seed, **options),
-            return_state=False,
-            categorical_actions=True,
-            seed=seed,
-        )
-
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", "PettingZoo in TorchRL is tested", UserWarning)
-        probe = make_one(cfg.seed)
-        groups = list(probe.group_map)
-        probe.close()
-        base = SerialEnv(
-            num_envs, [lambda i=i: make_one(cfg.seed + i) for i in range(num_envs)]
-        )  # fmt: skip
-    # Rename the manager observation out of the infos and count steps, then the same
-    # episode-return tracking and observation norm as the project's training env.
-    renamed = TransformedEnv(
-        base,
-        Compose(
-            RenameTransform(
-                in_keys=[(g, "info", "manager_observation") for g in groups],
-                out_keys=[(g, "manager_observation") for g in groups],
-            ),
-            StepCounter(),
-        ),
-    )
-    return with_training_transforms(cfg, renamed)
-
-
-def wrapper_trainer(cfg: Any, run_dir: Path) -> Any:
-    """A :class:`~rlhc.training.trainer.Trainer` whose collection env is the wrapper route."""
-    import torch
-
-    from rlhc.building.builders import Layout
-
-    timed: Any = timed_trainer_class()
-
-    class WrapperTrainer(timed):
-        # Same train() and update() as the project's trainer; only the env differs.
-        def update(self, batch: Any) -> dict[str, float]:
-            # TorchRL's batched envs raise torch's thread count when they close
-            # (BatchedEnvBase.close: + num_workers); seen here before the last update,
-            # which then ran 2 OpenMP threads and took 25-50x longer on the loaded
-            # machine. Keep the configured count, as the rlhc trainer has it.
-            torch.set_num_threads(self.cfg.threads)
-            return super().update(batch)
-
-        def save(self) -> Path:  # the wrapper env has no game state to checkpoint
-            return self.run_dir
-
-    env = make_wrapper_env(cfg, Layout.from_config(cfg).num_envs)
-    return WrapperTrainer(cfg, run_dir, env=env)
-
-
-# --- measuring a route, in this process ---------------------------------------------------
-def timed_trainer_class() -> type:
-    """A :class:`~rlhc.training.trainer.Trainer` that records process CPU time per update.
-
-    With one torch thread and a single-process env, CPU seconds are the seconds the
-    loop actually ran, so frames per CPU-second hardly depends on the machine's load.
-    """
-    from rlhc.training.trainer import Trainer
-
-    class Timed(Trainer):
-        def __init__(self, *args: Any, **kwargs: Any) -> None:
-            super().__init__(*args, **kwargs)
-            #: CPU seconds of every update (:meth:`update`, the public seam).
-            self.update_cpu: list[float] = []
-
-        def update(self, batch: Any) -> dict[str, float]:
-            start = time.process_time()
-            out = super().update(batch)
-            self.update_cpu.append(time.process_time() - start)
-            return out
-
-    return Timed
-
-
-def instrument(trainer: Any) -> dict[str, list[float]]:
-    """Record process CPU time per iteration and per update (wall time is in metrics.csv).
-
-    ``trainer`` is built from :func:`timed_trainer_class`, which records the updates;
-    an iteration ends at its row of metrics (one log per iteration, see bench_route).
-    """
-    cpu: dict[str, list[float]] = {"iteration": [], "update": trainer.update_cpu}
-    marks = [time.process_time()]
-    log = trainer.logger.log
-
-    def timed_log(step: int, metrics: dict[str, float]) -> None:
-        marks.append(time.process_time())
-        cpu["iteration"].append(marks[-1] - marks[-2])
-        log(step, metrics)
-
-    trainer.logger.log = timed_log
-    return cpu
-
-
-def combine(
-    rows: list[dict[str, float]], cpu: dict[str, list[float]], frames_per_batch: int, warmup: int
-) -> dict[str, Any]:
-    """Frames over time of the iterations after the warm-up (one row per iteration)."""
-    timed = rows[warmup:]
-    if not timed:
-        raise ValueError(f"no iteration left after {warmup} warm-up iteration(s)")
-    train_time = sum(frames_per_batch / row["train_frames_per_s"] for row in timed)
-    collect_time = sum(frames_per_batch / row["env_steps_per_s"] for row in timed)
-    cpu_time = sum(cpu["iteration"][warmup:])
-    update_cpu = sum(cpu["update"][warmup:])
-    frames = frames_per_batch * len(timed)
-    return {
-        "train_frames_per_s": frames / train_time,
-        "collect_share": collect_time / train_time,
-        "train_frames_per_cpu_s": frames / cpu_time,
-        "collect_share_cpu": 1.0 - update_cpu / cpu_time,
-        "cpu_per_wall": cpu_time / train_time,
-        "timed_iterations": len(timed),
-        "per_iteration_train_frames_per_s": [round(r["train_frames_per_s"], 1) for r in timed],
-        "per_iteration_cpu_s": [round(t, 3) for t in cpu["iteration"]],
-        "per_iteration_update_cpu_s": [round(t, 3) for t in cpu["update"]],
-    }
-
-
-def bench_route(route: str, env: str, critic: str, iterations: int, warmup: int) -> dict[str, Any]:
-    from rlhc.building.builders import Layout
-
-    layout = Layout.from_config(compose_config(env, critic, []))
-    cfg = compose_config(env, critic, bench_overrides(warmup + iterations, layout.frames_per_batch))
-    with tempfile.TemporaryDirectory(prefix=f"bench_{route}_") as tmp:
-        run_dir = Path(tmp)
-        start = time.perf_counter()
-        if route == "rlhc":
-            trainer = timed_trainer_class()(cfg, run_dir)
-        else:
-            trainer = wrapper_trainer(cfg, run_dir)
-        build = time.perf_counter() - start
-        cpu = instrument(trainer)
-        trainer.train()
-        rows = read_metrics(run_dir)
-    if len(rows) != warmup + iterations:  # summary_freq <= frames per batch in Table 3
-        raise RuntimeError(f"expected one metrics row per iteration, got {len(rows)}")
-    result = {"env": env, "critic": critic, "route": route, "worlds": layout.num_envs,
-              "frames_per_batch": layout.frames_per_batch,
-              "minibatch": layout.minibatch_frames, "warmup_iterations": warmup,
-              "build_s": build}  # fmt: skip
-    result.update(combine(rows, cpu, layout.frames_per_batch, warmup))
-    print(f"{env:7} {critic:13} {route:8} {result['train_frames_per_s']:>9,.0f} train frames/s, "
-          f"{result['train_frames_per_cpu_s']:>9,.0f} per CPU-s "
-          f"(collection {result['collect_share_cpu']:.0%} of the CPU time, "
-          f"{result['cpu_per_wall']:.0%} of a core, "
-          f"{result['timed_iterations']} iterations)", flush=True)  # fmt: skip
-    return result
-
-
 # --- py-spy profile summary --------------------------------------------------------------
 #: (category, regex on one collapsed stack); the first that matches wins, in this order.
 CATEGORIES: tuple[tuple[str, str], ...] = (
@@ -534,23 +355,22 @@ def write_results(path: Path, payload: dict[str, Any]) -> None:
 def summarise(
     runs: list[dict[str, Any]], ceilings: dict[str, dict[str, Any]]
 ) -> list[dict[str, Any]]:
-    """Per env and setup: median frames/s, and the median of the per-round ratios to ``one``."""
+    """Per env and setup: median frames/s, and the medians of the per-round ratios to the
+    setups ``one`` and ``reference`` (``None`` without such runs)."""
     rows = []
     for env, setup in dict.fromkeys((r["env"], r["setup"]) for r in runs):
         mine = [r for r in runs if (r["env"], r["setup"]) == (env, setup)]
-        ratios = []
-        for run in mine:
-            base = [
-                r for r in runs if (r["env"], r["setup"], r["round"]) == (env, "one", run["round"])
-            ]
-            if base:
-                ratios.append(run["frames_per_s"] / base[0]["frames_per_s"])
+        ratios: dict[str, list[float]] = {"one": [], "reference": []}
+        for base_setup, found in ratios.items():
+            rates = {r["round"]: r["frames_per_s"] for r in runs if (r["env"], r["setup"]) == (env, base_setup)}  # fmt: skip
+            found += [r["frames_per_s"] / rates[r["round"]] for r in mine if r["round"] in rates]
         ceiling = ceilings[env]["ceiling_frames_per_s_one_core"] * mine[0]["processes"]
         rate = statistics.median(r["frames_per_s"] for r in mine)
         rows.append({"env": env, "setup": setup, "processes": mine[0]["processes"],
                      "frames_per_s": rate, "per_round": [round(r["frames_per_s"], 1) for r in mine],
-                     "ratio_vs_one": statistics.median(ratios) if ratios else None,
-                     "ratios_per_round": [round(x, 3) for x in ratios],
+                     **{f"ratio_vs_{k}": statistics.median(v) if v else None for k, v in ratios.items()},
+                     "ratios_per_round": [round(x, 3) for x in ratios["one"]],
+                     "ratios_vs_reference_per_round": [round(x, 3) for x in ratios["reference"]],
                      "ceiling_frames_per_s": ceiling, "share_of_ceiling": rate / ceiling})  # fmt: skip
     return rows
 
@@ -620,8 +440,6 @@ def make_parser() -> argparse.ArgumentParser:
     parser.add_argument("--setups", nargs="+", default=list(SETUPS), choices=list(SETUPS))
     parser.add_argument("--updates", type=int, nargs=2, default=[13, 22], metavar=("SOCCER", "TENNIS"),
                         help="updates per run (timed from the first summary row: 2 and 7 updates)")  # fmt: skip
-    parser.add_argument("--iterations", type=int, default=4, help="timed updates, --wrapper")
-    parser.add_argument("--warmup", type=int, default=1, help="updates not timed, --wrapper")
     parser.add_argument("--repeats", type=int, default=1, help="rounds over the setups")
     parser.add_argument("--baseline", metavar="REV",
                         help="also run the code at this git revision, as the variant 'baseline'")  # fmt: skip
@@ -632,7 +450,6 @@ def make_parser() -> argparse.ArgumentParser:
     parser.add_argument("--overrides", nargs="+", default=[], metavar="OVERRIDE",
                         help="Hydra overrides appended to every run of every variant, the "
                              "baseline's too (e.g. study=tennis_best resume=null)")  # fmt: skip
-    parser.add_argument("--wrapper", action="store_true", help="add the PettingZooWrapper route")
     parser.add_argument("--breakdown", type=Path, help="summarise a py-spy raw profile and exit")
     parser.add_argument("--output", "--out", type=Path, default=RESULTS)
     return parser
@@ -715,14 +532,13 @@ def main() -> None:
             ceilings[env]["gemm_rows"], ceilings[env]["gemm_width"]
         )
     rows = summarise([r for r in runs if r.get("variant", CURRENT) == CURRENT], ceilings)
-    print(
-        f"\n{'env':7} {'setup':15} {'procs':>5} {'frames/s':>9} {'vs one':>7} {'ceiling':>9} {'share':>6}"
-    )
+    print(f"\n{'env':7} {'setup':15} {'procs':>5} {'frames/s':>9} {'vs one':>7} {'vs ref':>7} "
+          f"{'ceiling':>9} {'share':>6}")  # fmt: skip
     for row in rows:
-        ratio = row["ratio_vs_one"]
+        one, ref = (row[f"ratio_vs_{k}"] for k in ("one", "reference"))
         print(f"{row['env']:7} {row['setup']:15} {row['processes']:>5} {row['frames_per_s']:>9,.0f} "
-              f"{'' if ratio is None else f'{ratio:.2f}x':>7} {row['ceiling_frames_per_s']:>9,.0f} "
-              f"{row['share_of_ceiling']:>6.0%}")  # fmt: skip
+              f"{'' if one is None else f'{one:.2f}x':>7} {'' if ref is None else f'{ref:.2f}x':>7} "
+              f"{row['ceiling_frames_per_s']:>9,.0f} {row['share_of_ceiling']:>6.0%}")  # fmt: skip
     for env, info in ceilings.items():
         print(f"{env}: {info['flop_per_frame'] / 1e6:.2f} MFLOP per frame "
               f"({info['collection_flop_per_frame'] / 1e6:.2f} collect, "
@@ -746,22 +562,12 @@ def main() -> None:
             "variant_ceilings": {v.name: variant_ceilings[v.name] for v in args.variant},
             "rows": table,
         }  # fmt: skip
-    wrapper = []
-    if args.wrapper:
-        for env in args.env:
-            ours = bench_route("rlhc", env, args.critic, args.iterations, args.warmup)
-            theirs = bench_route("wrapper", env, args.critic, max(1, args.iterations // 4), 1)
-            theirs["ratio_rlhc_vs_wrapper"] = (
-                ours["train_frames_per_s"] / theirs["train_frames_per_s"]
-            )
-            wrapper += [ours, theirs]
     meta = {"machine": platform.machine(), "cpus": multiprocessing.cpu_count(),
             "python": platform.python_version(), "date": time.strftime("%Y-%m-%d %H:%M %Z"),
             "loadavg_before": load_before, "loadavg_after": os.getloadavg(),
             "updates": args.updates, "repeats": args.repeats,
             "command": " ".join([Path(sys.executable).name, *sys.argv])}  # fmt: skip
-    payload = {"measured": meta, "summary": rows, "ceilings": ceilings, "runs": runs,
-               "wrapper_route": wrapper}  # fmt: skip
+    payload = {"measured": meta, "summary": rows, "ceilings": ceilings, "runs": runs}
     if comparison is not None:
         payload["comparison"] = comparison
     write_results(args.output, payload)

@@ -1,6 +1,7 @@
-"""``benchmarks/train_throughput.py``: ``--variant`` parsing and the before/after ratios.
+"""``benchmarks/train_throughput.py``: ``--variant`` parsing, the ratios, the reference setup.
 
-Only the pure parts: no training runs, no git worktree (the script's smoke check does).
+The pure parts, and smoke-sized runs of the in-process ``reference`` setup: no training
+subprocesses, no git worktree (the script's smoke check does).
 """
 
 from __future__ import annotations
@@ -168,3 +169,38 @@ def test_a_source_tree_goes_first_on_pythonpath(
     assert tt.source_env(Path("/tmp/tree"))["PYTHONPATH"] == f"/tmp/tree{os.pathsep}/elsewhere"
     monkeypatch.delenv("PYTHONPATH")
     assert tt.source_env(Path("/tmp/tree"))["PYTHONPATH"] == "/tmp/tree"
+
+
+def test_summary_ratios_pair_each_setup_with_one_and_reference_of_its_round(
+    tt: ModuleType,
+) -> None:
+    runs = [{**run("current", r, rate, setup), "setup": setup}
+            for setup, rates in (("one", [100.0, 200.0]), ("reference", [400.0, 400.0]))
+            for r, rate in enumerate(rates)]  # fmt: skip
+    ceilings = {"tennis": {"ceiling_frames_per_s_one_core": 1000.0}}
+    rows = {row["setup"]: row for row in tt.summarise(runs, ceilings)}
+    assert rows["one"]["ratios_vs_reference_per_round"] == [0.25, 0.5]
+    assert math.isclose(rows["one"]["ratio_vs_reference"], 0.375)
+    assert rows["reference"]["ratio_vs_one"] == 3.0
+    assert rows["reference"]["ratio_vs_reference"] == 1.0
+
+
+@pytest.mark.parametrize("env", ["tennis", "soccer"])
+def test_reference_setup_runs_with_the_trainers_networks(tt: ModuleType, env: str) -> None:
+    """A smoke-sized reference run has a rate and counts the trainer's FLOP; at Table 3 its
+    networks (actor, worker and manager critic per group) hold the trainer's parameters."""
+    from benchmarks.reference_loop import Reference
+    from rlhc.building.builders import make_agents, trainable_parameters
+    from rlhc.envs import make_env
+
+    result = tt.run_setup(env, "hierarchical", "reference", 2, ["experiment=smoke"])
+    assert result["setup"] == "reference" and result["frames_per_s"] > 0
+    assert result["frames"] == result["frames_per_batch"] and result["checks"]["flop_ok"]
+
+    cfg = tt.compose_config(env, "hierarchical", [])
+    _, losses = make_agents(cfg, make_env(env, num_envs=1, seed=0, **cfg.env.game_options()))
+    nets = Reference(cfg).nets
+    assert all(len(list(group.children())) == 3 for group in nets.values())
+    assert {g: sum(p.numel() for p in group.parameters()) for g, group in nets.items()} == {
+        g: sum(p.numel() for p in trainable_parameters({g: loss})) for g, loss in losses.items()
+    }
