@@ -1,10 +1,8 @@
 """Hierarchical value estimation (RLHC) composed with TorchRL's PPO loss.
 
-Built on TorchRL's public API only (``tests/test_public_api.py`` checks it):
 :class:`FusedValue` is the two critics and their fusion as one TensorDict module,
-:class:`HierarchicalValueEstimator` is TorchRL's ``GAE`` on its output, and
-:class:`HierarchicalPPOLoss` is ``ClipPPOLoss`` with its critic hook trained on both.
-:func:`cut_trajectories` cuts a batch at the time horizon before the estimate, and
+:class:`HierarchicalValueEstimator` TorchRL's ``GAE`` on its output, and
+:class:`HierarchicalPPOLoss` ``ClipPPOLoss`` with its critic hook trained on both;
 :func:`learner_weighted_loss` reduces a loss's per-sample terms under the learner
 weight (a league world's opponents weigh 0).
 

@@ -22,11 +22,8 @@ The same functions give the paper's baselines and extensions through ``fusion``:
 and temporal scaling (the manager consulted every ``k`` steps only) through a
 ``manager_consulted`` mask: where it is false, ``V_hat = V_w``.
 
-Nothing here knows about TensorDicts or networks: every function is element-wise on
-tensors of any shape. GAE on the fused value is TorchRL's own, run by
-:class:`~rlhc.objectives.value.HierarchicalValueEstimator`; the tests hold a functional
-reference of it (``tests/objectives/reference_gae.py``), checked against a plain loop
-and closed forms, that the estimator must equal.
+Every function is element-wise on tensors of any shape; GAE on the fused value is
+TorchRL's own, run by :class:`~rlhc.objectives.value.HierarchicalValueEstimator`.
 """
 
 from __future__ import annotations
@@ -39,16 +36,8 @@ FUSIONS: tuple[str, ...] = ("local", "manager", "max", "mean", "weighted")
 
 
 def check_fusion(fusion: str, weight: float) -> None:
-    """Validate a fusion mode and its weight.
-
-    Args:
-        fusion: one of :data:`FUSIONS`.
-        weight: the manager's weight ``w`` in ``"weighted"`` fusion; checked for every
-            mode so that a bad config fails whatever the mode.
-
-    Raises:
-        ValueError: ``fusion`` is unknown, or ``weight`` is outside ``[0, 1]``.
-    """
+    """Raise ``ValueError`` unless ``fusion`` is one of :data:`FUSIONS` and ``weight``
+    lies in ``[0, 1]`` (checked for every mode: a bad config fails whatever the mode)."""
     if fusion not in FUSIONS:
         raise ValueError(f"unknown fusion {fusion!r}; choose one of {list(FUSIONS)}")
     if not 0.0 <= float(weight) <= 1.0:
@@ -70,13 +59,12 @@ def fuse_values(
         manager_value: ``V_m``, the same shape as ``worker_value``.
         fusion: one of :data:`FUSIONS`.
         weight: the manager's weight ``w`` in ``"weighted"`` fusion, in ``[0, 1]``.
-        manager_consulted: optional boolean mask broadcastable to the values; where it
-            is false the manager is not consulted and ``V_hat = V_w`` (temporal scaling).
+        manager_consulted: boolean mask broadcastable to the values; where false,
+            ``V_hat = V_w`` (temporal scaling).
 
     Returns:
-        ``(fused_value, manager_share)``: ``V_hat`` and, with the same shape and dtype,
-        the share of ``V_hat`` that came from the manager critic (see the module table;
-        0 wherever the manager was not consulted).
+        ``(fused_value, manager_share)``: ``V_hat`` and the share of it that came from
+        the manager critic (the module table; 0 where the manager was not consulted).
 
     Raises:
         ValueError: unknown ``fusion``, ``weight`` outside ``[0, 1]``, or the two values
@@ -118,17 +106,8 @@ def fuse_values(
 
 
 def manager_consulted_mask(step_count: Tensor, manager_interval: int) -> Tensor:
-    """Where the manager is consulted: ``step_count % k == 0`` (paper's temporal scaling).
-
-    Args:
-        step_count: integer steps taken in the episode before each observation.
-        manager_interval: ``k >= 1``; ``k = 1`` consults the manager at every step.
-
-    Returns:
-        A boolean tensor shaped like ``step_count``.
-
-    Raises:
-        ValueError: ``manager_interval < 1``.
+    """Where the manager is consulted, ``step_count % k == 0`` (the paper's temporal
+    scaling), for integer ``step_count`` (steps taken in the episode) and ``k >= 1``.
 
     Examples:
         >>> manager_consulted_mask(torch.arange(6), 5)
@@ -140,7 +119,6 @@ def manager_consulted_mask(step_count: Tensor, manager_interval: int) -> Tensor:
 
 def check_manager_interval(manager_interval: int) -> None:
     """Raise ``ValueError`` unless ``manager_interval`` is an integer ``>= 1``."""
-    if isinstance(manager_interval, bool) or not isinstance(manager_interval, int):
-        raise ValueError(f"manager_interval must be an integer >= 1, got {manager_interval!r}")
-    if manager_interval < 1:
+    integer = isinstance(manager_interval, int) and not isinstance(manager_interval, bool)
+    if not integer or manager_interval < 1:
         raise ValueError(f"manager_interval must be an integer >= 1, got {manager_interval!r}")

@@ -1,18 +1,17 @@
 """PPO for RLHC: TorchRL's ``ClipPPOLoss`` with two critics and the hierarchical estimator.
 
-The policy term is TorchRL's clipped surrogate, unchanged, on the advantage of
-:class:`~rlhc.objectives.value.HierarchicalValueEstimator` (computed without
-gradient: the policy gets none through the fused value). The critic term is the
-only change: both critics are regressed on the same lambda-return of ``V_hat``,
-each with its own loss, so that neither critic starves when the other one wins
-the max (the paper trains both; a loss on ``V_hat`` alone would only train, at
-each step, the critic that was selected).
+The policy term is TorchRL's clipped surrogate on the advantage of
+:class:`~rlhc.objectives.value.HierarchicalValueEstimator`, which carries no gradient.
+The critic term is the only change: both critics are regressed on the same
+lambda-return of ``V_hat``, each with its own loss, so that neither starves when the
+other wins the max (a loss on ``V_hat`` alone trains, at each step, only the critic
+selected).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import Any
 
 import torch
 from tensordict import TensorDictBase
@@ -24,7 +23,7 @@ from tensordict.nn import (
 )
 from tensordict.utils import NestedKey
 from torch import Tensor
-from torchrl.objectives import AUTO_LOSS_MASK_KEYS, ClipPPOLoss, ValueEstimators
+from torchrl.objectives import ClipPPOLoss, ValueEstimators
 from torchrl.objectives.utils import distance_loss
 
 from rlhc.envs import keys
@@ -41,20 +40,9 @@ EXPLAINED_VARIANCE_WORKER = "explained_variance_worker"
 EXPLAINED_VARIANCE_MANAGER = "explained_variance_manager"
 
 
-class _CriticTerms(NamedTuple):
-    worker: Tensor
-    manager: Tensor | None  # None: the manager critic is not run (PPO)
-    explained_variance: Tensor  # of the fused value
-    worker_explained_variance: Tensor
-    manager_explained_variance: Tensor | None
-
-
 def explained_variance(target: Tensor, value: Tensor, weight: Tensor | None = None) -> Tensor:
-    """``1 - Var(target - value) / Var(target)`` over every element (no gradient).
-
-    1 for a perfect prediction (up to a constant offset), 0 for a constant, negative
-    for worse than a constant. With ``weight`` (broadcastable to ``target``, 0 or 1 per
-    element) both variances are taken over the elements of weight 1 only.
+    """``1 - Var(target - value) / Var(target)`` over every element (no gradient), or
+    over the elements of weight 1 only (``weight``: 0 or 1, broadcastable to ``target``).
 
     Examples:
         >>> target = torch.tensor([1.0, 2.0, 3.0])
@@ -78,22 +66,33 @@ def explained_variance(target: Tensor, value: Tensor, weight: Tensor | None = No
         return 1.0 - residual / (spread + torch.finfo(target.dtype).eps)
 
 
-#: Gamma and lambda of an estimator built without them (TorchRL's GAE defaults).
-DEFAULT_GAE_HYPERPARAMS: dict[str, float] = {"gamma": 0.99, "lmbda": 0.95}
+def _reduced(term: Tensor, reduction: str) -> Tensor:
+    # A per-sample term [*B, n_g, 1], reduced as ClipPPOLoss reduces its own (no masks).
+    if reduction == "none":
+        return term.squeeze(-1)
+    return term.sum() if reduction == "sum" else term.mean()
 
 
 class HierarchicalPPOLoss(ClipPPOLoss):
     """``ClipPPOLoss`` whose critic loss trains a worker and a manager critic.
 
-    ``loss_critic = c * (d(V_target, V_w) + d(V_target, V_m))`` where ``d`` is
-    ``loss_critic_type`` and ``V_target`` the lambda-return of the fused value written
-    by the attached estimator. It is computed by :meth:`loss_critic`, the critic hook
-    that ``ClipPPOLoss.forward`` calls; everything else (clipping, entropy bonus,
-    advantage normalisation, reductions) is TorchRL's. Attach the estimator with
-    ``loss.make_value_estimator(HierarchicalValueEstimator(...))``, which also hands it
-    this loss's keys, or build both with :func:`make_ppo_loss`. (A plain assignment,
-    ``loss.value_estimator = estimator``, does not attach it: ``torch.nn.Module`` files
-    a module value under its own name before TorchRL's setter is reached.)
+    ``loss_critic = c * (d(V_target, V_w) + d(V_target, V_m))``, ``d`` being
+    ``loss_critic_type`` and ``V_target`` the lambda-return of ``V_hat`` written by the
+    attached :class:`HierarchicalValueEstimator`; it is computed by :meth:`loss_critic`,
+    the hook ``ClipPPOLoss.forward`` calls. Everything else (clipping, entropy bonus,
+    advantage standardisation, ``reduction``) is TorchRL's. Attach the estimator with
+    :meth:`make_value_estimator` (a plain ``loss.value_estimator = ...`` is filed by
+    ``torch.nn.Module`` before TorchRL's setter runs), or build both with
+    :func:`make_ppo_loss`.
+
+    ``forward`` writes TorchRL's outputs (``loss_critic`` the sum of the two terms,
+    ``explained_variance`` that of ``V_hat``) plus the detached ``loss_worker_critic``
+    and ``loss_manager_critic`` (the two terms, reduced as ``reduction`` says) and
+    ``explained_variance_worker`` / ``_manager``. Only :data:`LOSS_KEYS` carry gradient.
+    Under ``"local"`` fusion without ``manager_diagnostics`` the manager critic is
+    neither evaluated nor trained, and its two entries are absent. Validity masks
+    (TorchRL's ``loss_mask_key``) are not read: the learner weight plays that part
+    (:func:`~rlhc.objectives.weighting.learner_weighted_loss`).
 
     Args:
         actor_network: the group's ``ProbabilisticActor``.
@@ -103,23 +102,8 @@ class HierarchicalPPOLoss(ClipPPOLoss):
     Keyword Args:
         critic_coeff: ``c``, the weight of the two critic terms.
         loss_critic_type: ``"l2"``, ``"l1"`` or ``"smooth_l1"``.
-        **ppo_kwargs: forwarded to ``ClipPPOLoss`` (``clip_epsilon``, ``entropy_coeff``,
-            ``normalize_advantage``, ...); value clipping (``clip_value``) and
+        **ppo_kwargs: forwarded to ``ClipPPOLoss``; ``clip_value`` and
             ``separate_losses`` are not supported.
-
-    Output (``forward``): TorchRL's ``loss_objective``, ``loss_entropy``, ``entropy``,
-    ``kl_approx``, ``clip_fraction``, ``ESS``, ``max_ratio``, ``mean_ratio``,
-    ``loss_critic`` (the sum of the two critic terms) and ``explained_variance`` (of
-    the current fused value), plus detached diagnostics ``loss_worker_critic`` and
-    ``loss_manager_critic`` (the two terms, which add up to ``loss_critic``, reduced
-    as TorchRL reduces ``loss_critic``) and ``explained_variance_worker`` and
-    ``explained_variance_manager`` (of each critic's value against the same target).
-    Only :data:`LOSS_KEYS` carry gradient.
-
-    Under ``"local"`` fusion (PPO) the estimator does not run the manager critic unless
-    built with ``manager_diagnostics=True``; the loss then neither evaluates nor trains
-    it: ``loss_critic`` is the worker's term alone and ``loss_manager_critic`` and
-    ``explained_variance_manager`` are absent.
 
     Raises:
         ValueError: ``critic_coeff <= 0``, ``clip_value`` or ``separate_losses`` given.
@@ -127,14 +111,8 @@ class HierarchicalPPOLoss(ClipPPOLoss):
 
     @dataclass
     class _AcceptedKeys(ClipPPOLoss.default_keys):
-        """TorchRL's PPO keys plus the two critics' outputs.
-
-        Attributes:
-            worker_value: the worker critic's output ``V_w``.
-            manager_value: the manager critic's output ``V_m``.
-            learner: whether the learning policy chose the action (league worlds),
-                read by :func:`~rlhc.objectives.weighting.learner_weighted_loss`.
-        """
+        """TorchRL's PPO keys plus the critics' outputs and the league's ``learner`` flag
+        (read by :func:`~rlhc.objectives.weighting.learner_weighted_loss`)."""
 
         worker_value: NestedKey = keys.WORKER_VALUE
         manager_value: NestedKey = keys.MANAGER_VALUE
@@ -177,9 +155,8 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             raise ValueError(
                 f"critic_coeff must be > 0 (both critics must learn), got {critic_coeff}"
             )
-        # ClipPPOLoss reads its coefficients on the host while it builds (critic_coeff
-        # > 0): its buffers are made there, then moved to the networks' device, which
-        # leaves the parameters (already there) shared with the caller's modules.
+        # ClipPPOLoss reads its coefficients on the host while it builds: built there,
+        # then moved to the networks' device, which leaves the parameters shared.
         device = ppo_kwargs.pop("device", None)
         if device is None:
             first = next(actor_network.parameters(), None)
@@ -194,6 +171,7 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             device=torch.device("cpu"),
             **ppo_kwargs,
         )
+        self.loss_mask_key = None  # no validity masks: see the class docstring
         if self.max_importance_ratio is not None:
             # A setting (the config holds it), not learned state: checkpoints keep
             # their keys, and a cap set now applies to a run resumed from an older one.
@@ -201,12 +179,11 @@ class HierarchicalPPOLoss(ClipPPOLoss):
                 "max_importance_ratio", self.max_importance_ratio, persistent=False
             )
         self.to(device)
-        # What the last loss_critic call computed, for forward's diagnostics (detached).
-        self._critic_split: _CriticTerms | None = None
+        # The last loss_critic call's per-critic terms, for forward's diagnostics.
+        self._critic_split: dict[str, Tensor] = {}
 
     @property
     def out_keys(self) -> list[str]:
-        torchrl_keys = [key for key in super().out_keys if key != "loss_critic"]
         extra = [
             "loss_critic",
             LOSS_WORKER_CRITIC,
@@ -215,7 +192,7 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             EXPLAINED_VARIANCE_WORKER,
             EXPLAINED_VARIANCE_MANAGER,
         ]
-        return list(dict.fromkeys([*torchrl_keys, *extra]))
+        return list(dict.fromkeys([*super().out_keys, *extra]))
 
     @out_keys.setter
     def out_keys(self, values: list[str]) -> None:
@@ -227,11 +204,10 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         """Attach a :class:`HierarchicalValueEstimator` and give it this loss's keys.
 
         Args:
-            value_type: a :class:`HierarchicalValueEstimator` to attach; or ``None``,
-                ``ValueEstimators.GAE`` (TorchRL's default for PPO) or the class
-                :class:`HierarchicalValueEstimator`, to build one on this loss's two
-                critics from ``hyperparams`` (``gamma`` and ``lmbda`` default to 0.99
-                and 0.95, ``fusion`` to ``"max"``).
+            value_type: the estimator to attach; or ``None``, ``ValueEstimators.GAE``
+                (TorchRL's default for PPO) or the class itself, to build one on this
+                loss's critics from ``hyperparams`` (``gamma`` 0.99 and ``lmbda`` 0.95 by
+                default).
             **hyperparams: constructor arguments of the estimator to build.
 
         Returns:
@@ -242,16 +218,12 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         """
         if isinstance(value_type, HierarchicalValueEstimator):
             estimator = value_type
-        elif (
-            value_type is None
-            or value_type is HierarchicalValueEstimator
-            or (value_type == ValueEstimators.GAE)
-        ):
+        elif value_type in (None, ValueEstimators.GAE, HierarchicalValueEstimator):
             hyperparams.pop("device", None)  # passed by LossModule; buffers follow .to()
             estimator = HierarchicalValueEstimator(
                 worker_value_network=self.critic_network[0],
                 manager_value_network=self.critic_network[1],
-                **{**DEFAULT_GAE_HYPERPARAMS, **hyperparams},
+                **{"gamma": 0.99, "lmbda": 0.95, **hyperparams},
             )
         else:
             raise ValueError(
@@ -263,112 +235,34 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         return self
 
     def set_keys(self, **kwargs: Any) -> None:
-        """Set tensordict keys, as ``ClipPPOLoss.set_keys``, plus ``worker_value`` and
-        ``manager_value``; an attached estimator receives the new keys."""
+        """``ClipPPOLoss.set_keys``, plus ``worker_value``, ``manager_value`` and
+        ``learner``; an attached estimator receives the new keys."""
         super().set_keys(**kwargs)
-        if self._has_hierarchical_estimator():
+        # LossModule.make_value_estimator records the estimator's class in value_type
+        # (read here so as not to build TorchRL's default estimator).
+        if isinstance(getattr(self, "value_type", None), type):
             self.value_estimator.set_keys(**self._estimator_keys())
-
-    def _has_hierarchical_estimator(self) -> bool:
-        # ``value_type`` is where LossModule.make_value_estimator records the class of
-        # the attached estimator (read here so as not to build TorchRL's default one).
-        value_type = getattr(self, "value_type", None)
-        return isinstance(value_type, type) and issubclass(value_type, HierarchicalValueEstimator)
 
     def _estimator_keys(self) -> dict[str, NestedKey]:
         return {name: getattr(self.tensor_keys, name) for name in self.ESTIMATOR_KEYS}
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
-        """The PPO losses and diagnostics on a batch (or minibatch) of data.
-
-        Args:
-            tensordict: collected data; if it holds no advantage yet, the attached
-                estimator computes it first (usually the trainer does so once per
-                batch, before splitting it into minibatches).
-
-        Returns:
-            A TensorDict of scalars (see the class docstring), or of per-sample terms
-            with ``reduction="none"``.
-        """
-        if tensordict.get(self.tensor_keys.advantage, None) is None:
-            # Run here (rather than inside ClipPPOLoss.forward) so that the value
-            # target lands in a copy (not the caller's data), where the critic terms
-            # read it. ClipPPOLoss.forward copies the entries it writes to itself.
-            tensordict = tensordict.clone(False)
-            with torch.no_grad():
-                self.value_estimator(tensordict)
-        self._critic_split = None
+        """The PPO losses and diagnostics on a (mini)batch; if it holds no advantage, the
+        attached estimator runs first, on a copy (the trainer runs it once per batch)."""
         td_out = super().forward(tensordict)  # calls self.loss_critic once
-        split, self._critic_split = self._critic_split, None
-        if split is None:
-            raise RuntimeError(
-                "ClipPPOLoss.forward did not call loss_critic; this TorchRL version is "
-                "not supported by HierarchicalPPOLoss"
-            )
-        td_out.set(LOSS_WORKER_CRITIC, self._reduce_like_torchrl(split.worker, tensordict))
-        td_out.set(EXPLAINED_VARIANCE_WORKER, split.worker_explained_variance)
-        if split.manager is not None:
-            td_out.set(LOSS_MANAGER_CRITIC, self._reduce_like_torchrl(split.manager, tensordict))
-            td_out.set(EXPLAINED_VARIANCE_MANAGER, split.manager_explained_variance)
+        for key, value in self._critic_split.items():
+            td_out.set(key, _reduced(value, self.reduction) if key.startswith("loss_") else value)
+        self._critic_split = {}
         return td_out
 
     def loss_critic(self, tensordict: TensorDictBase) -> tuple[Tensor, None, Tensor]:
         """ClipPPOLoss's critic hook: both critics regressed on the fused value's target.
 
-        ``ClipPPOLoss.forward`` calls it, stores the first output as ``loss_critic``
-        (reduced) and the third as ``explained_variance``.
-
-        Args:
-            tensordict: data holding the value target.
-
         Returns:
-            ``(loss, None, explained_variance)``: the unreduced sum of both critic
-            terms, no value-clip fraction, and the explained variance of ``V_hat``.
+            ``(loss, None, explained_variance)``: the unreduced sum of both critic terms,
+            no value-clip fraction, and the explained variance of ``V_hat``.
         """
-        terms = self._critic_terms(tensordict)
-        manager = terms.manager.detach() if terms.manager is not None else None
-        self._critic_split = terms._replace(worker=terms.worker.detach(), manager=manager)
-        if terms.manager is None:
-            return terms.worker, None, terms.explained_variance
-        return terms.worker + terms.manager, None, terms.explained_variance
-
-    def _reduce_like_torchrl(self, loss: Tensor, tensordict: TensorDictBase) -> Tensor:
-        # ClipPPOLoss's reduction of a "loss_*" entry, after its documented contract:
-        # positions outside the validity masks (``loss_mask_key``) are zeroed, then
-        # ``reduction`` "none" keeps them (squeezing the feature dim), "sum" sums and
-        # "mean" averages over the valid ones.
-        mask = self._loss_mask(tensordict, loss)
-        if mask is not None:
-            loss = torch.where(mask, loss, torch.zeros_like(loss))
-        if self.reduction == "none":
-            return loss.squeeze(-1)
-        if self.reduction == "sum":
-            return loss.sum()
-        if mask is None:
-            return loss.mean()
-        return loss.sum() / mask.sum().clamp_min(1)
-
-    def _loss_mask(self, tensordict: TensorDictBase, loss: Tensor) -> Tensor | None:
-        mask_key = self.loss_mask_key
-        if mask_key is None:
-            return None
-        candidates = AUTO_LOSS_MASK_KEYS if mask_key == "auto" else (mask_key,)
-        mask = None
-        for key in candidates:
-            found = tensordict.get(key, None)
-            if found is None:
-                continue
-            # [B, T, 1] masks against [B, T, n, 1] terms: drop trailing singletons, then
-            # append dims until the mask broadcasts.
-            while found.ndim > loss.ndim and found.shape[-1] == 1:
-                found = found.squeeze(-1)
-            found = found.reshape(*found.shape, *(1,) * (loss.ndim - found.ndim))
-            found = found.expand_as(loss).bool()
-            mask = found if mask is None else mask & found
-        return mask
-
-    def _critic_terms(self, tensordict: TensorDictBase) -> _CriticTerms:
-        tk = self.tensor_keys
+        tk, estimator = self.tensor_keys, self.value_estimator
         target = tensordict.get(tk.value_target, None)
         if target is None:
             raise KeyError(
@@ -376,44 +270,32 @@ class HierarchicalPPOLoss(ClipPPOLoss):
                 "(loss.value_estimator(data)) or let forward run it"
             )
         target = target.detach()
-        # Evaluate on a selection so that the values with gradient are never written
-        # into the caller's data. The critics run with their own parameters, which are
-        # the very tensors ClipPPOLoss holds (and the optimiser updates).
-        estimator = self.value_estimator
-        hierarchical = isinstance(estimator, HierarchicalValueEstimator)
+        # On a selection, so that values with gradient never land in the caller's data;
         # PPO ("local" fusion) leaves the manager critic out unless asked to run it.
-        critics = (
-            self.critic_network
-            if not hierarchical or estimator.runs_manager
-            else self.critic_network[0]
-        )
-        inputs = tensordict.select(*critics.in_keys, strict=False)
-        values = critics(inputs)
+        critics = self.critic_network if estimator.runs_manager else self.critic_network[0]
+        values = critics(tensordict.select(*critics.in_keys, strict=False))
         worker_value = values.get(tk.worker_value)
         manager_value = values.get(tk.manager_value, None)
-        worker = self.critic_coeff * distance_loss(target, worker_value, self.loss_critic_type)
-        manager = None
+        with torch.no_grad():
+            fused, _ = estimator.fused_value().fuse(tensordict, worker_value, manager_value)
+        # League worlds: the variances over the learner's experiences only.
+        learner = tensordict.get(tk.learner, None)
+        weight = learner.reshape(target.shape).to(target.dtype) if learner is not None else None
+        loss = self.critic_coeff * distance_loss(target, worker_value, self.loss_critic_type)
+        self._critic_split = {
+            LOSS_WORKER_CRITIC: loss.detach(),
+            EXPLAINED_VARIANCE_WORKER: explained_variance(target, worker_value, weight),
+        }
         if manager_value is not None:
             manager = self.critic_coeff * distance_loss(
                 target, manager_value, self.loss_critic_type
             )
-        with torch.no_grad():
-            if hierarchical:
-                fused, _ = estimator.fused_value().fuse(tensordict, worker_value, manager_value)
-            else:
-                fused = worker_value
-        # League worlds: the variances over the learner's experiences only.
-        learner = tensordict.get(tk.learner, None)
-        weight = learner.reshape(target.shape).to(target.dtype) if learner is not None else None
-        return _CriticTerms(
-            worker,
-            manager,
-            explained_variance(target, fused, weight),
-            explained_variance(target, worker_value, weight),
-            explained_variance(target, manager_value, weight)
-            if manager_value is not None
-            else None,
-        )
+            self._critic_split[LOSS_MANAGER_CRITIC] = manager.detach()
+            self._critic_split[EXPLAINED_VARIANCE_MANAGER] = explained_variance(
+                target, manager_value, weight
+            )
+            loss = loss + manager
+        return loss, None, explained_variance(target, fused, weight)
 
 
 def make_ppo_loss(
@@ -441,8 +323,7 @@ def make_ppo_loss(
 
     Args:
         actor: the group's policy (:func:`~rlhc.modules.make_actor`); the loss scores
-            its :func:`~rlhc.modules.actors.scored_policy` (``tanh_normal``: the
-            pre-tanh draw).
+            its :func:`~rlhc.modules.actors.scored_policy`.
         worker_critic: ``V_w`` (:func:`~rlhc.modules.make_worker_critic`).
         manager_critic: ``V_m`` (:func:`~rlhc.modules.make_manager_critic`).
         group: the agent group, e.g. ``"racket"``; every key is nested under it.
@@ -454,25 +335,22 @@ def make_ppo_loss(
         clip_epsilon: PPO ratio clip (paper: 0.2).
         entropy_coef: entropy bonus ``beta`` (paper: 0.005 tennis, 0.01 soccer).
         critic_coef: weight of each critic's regression term.
-        normalize_advantage: standardise the advantage per minibatch, per agent slot
-            (TorchRL's standardisation, over every experience).
+        normalize_advantage: TorchRL's standardisation of the advantage per minibatch,
+            per agent slot.
         loss_critic_type: ``"l2"``, ``"l1"`` or ``"smooth_l1"``.
-        reduction: TorchRL's reduction of the loss terms, ``"mean"``, ``"sum"`` or
-            ``"none"`` (per-sample terms, e.g. for
-            :func:`~rlhc.objectives.weighting.learner_weighted_loss`, which wants
-            ``normalize_advantage=False`` too).
-        manager_diagnostics: with ``fusion="local"`` (PPO), still run and train the
-            manager critic (for its logged value); by default PPO leaves it out.
-        shifted: the estimator reads trajectories and runs the critics once per batch
-            (see :class:`~rlhc.objectives.value.HierarchicalValueEstimator`); the
-            trainer's collected batches are.
+        reduction: TorchRL's reduction of the loss terms; ``"none"`` (with
+            ``normalize_advantage=False``) for
+            :func:`~rlhc.objectives.weighting.learner_weighted_loss`, as the trainer does.
+        manager_diagnostics: under ``fusion="local"`` (PPO), still run and train the
+            manager critic (for its logged value).
+        shifted: the data are a collector's trajectories: the critics run once per batch
+            (see :class:`~rlhc.objectives.value.HierarchicalValueEstimator`).
         max_importance_ratio: cap of the ratio ``pi / pi_old`` in the surrogate
-            (``ClipPPOLoss``'s; ``None``: none), so that a ratio whose exponential
-            overflows cannot turn the loss infinite.
+            (``None``: none), so that an overflowing ratio cannot make the loss infinite.
 
     Returns:
-        A :class:`HierarchicalPPOLoss`; its ``value_estimator`` is a
-        :class:`~rlhc.objectives.value.HierarchicalValueEstimator`. Optimise
+        A :class:`HierarchicalPPOLoss` with its
+        :class:`~rlhc.objectives.value.HierarchicalValueEstimator` attached. Optimise
         ``loss.parameters()`` on the sum of :data:`LOSS_KEYS`.
 
     Examples:

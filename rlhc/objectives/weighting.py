@@ -1,21 +1,11 @@
 """PPO under the learner weight: the experiences of a league world's opponents add nothing.
 
-In a league world (:mod:`rlhc.training.league`) one team plays the learning policy and the
-other an opponent; both teams' experiences are collected, but only the learner's may
-train it. Each experience carries a weight, 1 where the learning policy chose the
-action (``(g, "learner")``) and 0 elsewhere (all ones without a league), and
-
-- every PPO term of :data:`~rlhc.objectives.ppo.LOSS_KEYS` is the mean of its
-  per-sample values under that weight (:func:`weighted_mean`);
-- the advantage is standardised per agent slot, as TorchRL's MAPPO does, over the
-  experiences of weight 1 only (:func:`standardise_advantage`).
-
-TorchRL's own ``reduction`` and ``normalize_advantage`` average every sample alike, so
-:func:`learner_weighted_loss` runs a loss built for per-sample terms
-(``make_ppo_loss(..., reduction="none", normalize_advantage=False)``) and does both.
-Its ``reduce`` argument sums a partial statistic over the processes that hold the rest
-of a minibatch (data-parallel training): the terms are then means over the whole
-minibatch, and the gradients summed over the processes are those of one process.
+In a league world (:mod:`rlhc.training.league`) one team plays the learning policy and
+the other an opponent; both teams' experiences are collected, but only the learner's
+may train it. Each experience weighs 1 where the learning policy chose the action
+(``(g, "learner")``; all ones without a league) and 0 elsewhere. TorchRL's
+``reduction`` and ``normalize_advantage`` average every sample alike, so
+:func:`learner_weighted_loss` takes a loss's per-sample terms and reduces them itself.
 """
 
 from __future__ import annotations
@@ -30,7 +20,7 @@ from torch import Tensor
 
 from rlhc.objectives.ppo import LOSS_KEYS, HierarchicalPPOLoss
 
-#: Sums a tensor over the processes sharing a minibatch (the identity for one process).
+#: Sums a tensor over the processes sharing a minibatch (data-parallel training).
 Reduce = Callable[[Tensor], Tensor]
 
 #: Loss-output diagnostics reported per group (those the loss writes).
@@ -49,20 +39,10 @@ DIAGNOSTICS: tuple[str, ...] = (
 )
 
 
-def _identity(tensor: Tensor) -> Tensor:
-    return tensor
-
-
 def learner_weight(data: TensorDictBase, learner_key: NestedKey, like: Tensor) -> Tensor:
-    """``float [B, n_g]``: 1 where the learning policy chose the action, else 0.
-
-    Args:
-        data: a (mini)batch of batch size ``[B]`` (or ``[*B]``).
-        learner_key: the group's ``(g, "learner")`` flag; absent without a league.
-        like: a per-agent entry of the group (``[*B, n_g, ...]``), for the shape.
-
-    Returns:
-        All ones without the flag; otherwise the flag as floats.
+    """``float [B, n_g]``: 1 where the learning policy chose the action, else 0; all
+    ones where ``data`` has no ``learner_key``. ``like`` is a per-agent entry
+    ``[*B, n_g, ...]``, for the shape.
 
     Examples:
         >>> from tensordict import TensorDict
@@ -77,14 +57,9 @@ def learner_weight(data: TensorDictBase, learner_key: NestedKey, like: Tensor) -
 
 
 def weighted_mean(value: Tensor, weight: Tensor, total: Tensor | None = None) -> Tensor:
-    """The mean of ``value`` (a per-sample ``[B, n_g]`` term, or a scalar) under ``weight``.
-
-    Args:
-        value: per-sample values (any shape with ``weight.numel()`` elements), or a
-            scalar, returned as it is.
-        weight: ``[B, n_g]`` weights.
-        total: replaces ``weight.sum()`` as the denominator: the weight of the whole
-            minibatch when this process holds only its share (data-parallel).
+    """The mean of a per-sample ``value`` (``weight.numel()`` elements) under ``weight``;
+    a scalar ``value`` is returned as it is. ``total`` replaces ``weight.sum()`` as the
+    denominator: the whole minibatch's weight when this process holds only its share.
 
     Examples:
         >>> weighted_mean(torch.tensor([[1.0, 5.0], [3.0, 7.0]]), torch.tensor([[1.0, 0.0], [1.0, 0.0]]))
@@ -97,21 +72,12 @@ def weighted_mean(value: Tensor, weight: Tensor, total: Tensor | None = None) ->
 
 
 def standardise_advantage(
-    data: TensorDictBase,
-    advantage_key: NestedKey,
-    weight: Tensor,
-    reduce: Reduce | None = None,
+    data: TensorDictBase, advantage_key: NestedKey, weight: Tensor, reduce: Reduce | None = None
 ) -> None:
-    """Standardise the advantage of a minibatch in place, per agent slot, under ``weight``.
-
-    Args:
-        data: the minibatch ``[B]``; its advantage ``[B, n_g, 1]`` is overwritten.
-        advantage_key: the group's ``(g, "advantage")``.
-        weight: ``[B, n_g]``; only experiences of weight 1 count in the statistics.
-        reduce: sums a partial statistic over the processes holding the rest of the
-            minibatch; ``None`` for one process.
-    """
-    reduce = reduce or _identity
+    """Standardise the advantage ``[B, n_g, 1]`` of a minibatch in place, per agent slot
+    (as TorchRL's MAPPO), over the experiences of weight 1 only; ``reduce`` sums the
+    statistics over the processes holding the rest of the minibatch."""
+    reduce = reduce or (lambda tensor: tensor)
     advantage = data[advantage_key]
     shaped = advantage.reshape(weight.shape)
     sums = reduce(torch.stack([weight.sum(dim=0), (shaped * weight).sum(dim=0)]))
@@ -123,14 +89,9 @@ def standardise_advantage(
 
 
 class WeightedLoss(NamedTuple):
-    """What :func:`learner_weighted_loss` returns.
-
-    Attributes:
-        total: the sum of the :data:`~rlhc.objectives.ppo.LOSS_KEYS` terms (with gradient).
-        diagnostics: :data:`DIAGNOSTICS` the loss wrote, each averaged under the learner
-            weight of this process's share only: detached scalar tensors, so that
-            nothing waits on the device until the caller reads them.
-    """
+    """The sum of the :data:`~rlhc.objectives.ppo.LOSS_KEYS` terms (with gradient), and
+    the :data:`DIAGNOSTICS` the loss wrote, each averaged under the learner weight of
+    this process's share: detached scalars, so that nothing waits on the device."""
 
     total: Tensor
     diagnostics: dict[str, Tensor]
@@ -146,18 +107,14 @@ def learner_weighted_loss(
     """One group's PPO loss on a minibatch, every term averaged under the learner weight.
 
     Args:
-        loss: the group's loss, built for per-sample terms (``reduction="none"``) and
-            without TorchRL's standardisation (``normalize_advantage=False``).
-        minibatch: a flat minibatch ``[B]`` holding the advantage and value target
-            (estimated once per batch); its advantage is standardised in place when
-            ``normalize_advantage``.
-        normalize_advantage: standardise the advantage per agent slot over the
-            learner's experiences (:func:`standardise_advantage`).
-        reduce: sums over the processes sharing the minibatch (data-parallel);
-            ``None`` for one process.
-
-    Returns:
-        A :class:`WeightedLoss`.
+        loss: the group's loss, built for per-sample terms (``reduction="none"``,
+            ``normalize_advantage=False``).
+        minibatch: a flat minibatch ``[B]`` holding the advantage and value target.
+        normalize_advantage: standardise the advantage in place, per agent slot, over
+            the learner's experiences (:func:`standardise_advantage`).
+        reduce: sums over the processes sharing the minibatch (data-parallel): each term
+            is then a mean over the whole minibatch, and the gradients summed over the
+            processes are those of one process; ``None`` for one process.
 
     Raises:
         ValueError: the loss reduces or standardises on its own.
@@ -170,7 +127,6 @@ def learner_weighted_loss(
         )
     keys = loss.tensor_keys
     weight = learner_weight(minibatch, keys.learner, minibatch[keys.advantage])
-    # The whole minibatch's weight: each term is a mean over all its processes.
     total_weight = reduce(weight.sum()) if reduce is not None else None
     if normalize_advantage:
         standardise_advantage(minibatch, keys.advantage, weight, reduce)
@@ -191,17 +147,11 @@ def policy_diagnostics(
     """``kl_approx``, ``clip_fraction`` and ``entropy`` of the current policy on a
     minibatch, each averaged under ``weight``.
 
-    ``ClipPPOLoss`` reports these three as means over every experience whatever its
-    ``reduction``; in a league world half of them were chosen by an opponent's policy,
-    whose log-probabilities make the ratio meaningless. Recomputed here per experience
-    (one more forward of the actor, without gradient), as ``ClipPPOLoss`` computes them:
-    ``kl_approx = log pi_old(a) - log pi(a)``, clipped where the ratio leaves
+    ``ClipPPOLoss`` averages these over every experience, and in a league world half of
+    them were chosen by an opponent, whose log-probabilities make the ratio meaningless.
+    Recomputed per experience as ``ClipPPOLoss`` does (one more actor forward, without
+    gradient): ``kl_approx = log pi_old(a) - log pi(a)``, clipped where the ratio leaves
     ``[1 - eps, 1 + eps]``, the analytic entropy or else a one-sample estimate.
-
-    Args:
-        loss: the group's loss (its actor, keys and ``clip_epsilon``).
-        minibatch: a flat minibatch ``[B]`` of collected experiences.
-        weight: ``[B, n_g]``, as :func:`learner_weight` gives it.
     """
     keys = loss.tensor_keys
     with torch.no_grad():

@@ -287,21 +287,6 @@ def test_reductions_of_the_critic_terms(networks: Callable, reduction: str) -> N
         assert_close(out[key].sum() / totals[reduction], mean[key])
 
 
-def test_masked_positions_are_left_out_of_every_critic_term(networks: Callable) -> None:
-    loss = build_loss(networks)
-    data = collected(loss)
-    with torch.no_grad():
-        loss.value_estimator(data)
-    flat = data.reshape(-1)
-    mask = torch.zeros(flat.numel(), 1, dtype=torch.bool)
-    mask[: flat.numel() // 2] = True
-    flat["collector", "mask"] = mask  # TorchRL's padding mask, found by loss_mask_key="auto"
-    out = loss(flat)
-    kept = loss(flat[: flat.numel() // 2].exclude("collector"))
-    for key in ("loss_critic", "loss_worker_critic", "loss_manager_critic"):
-        assert_close(out[key], kept[key])
-
-
 def test_make_value_estimator_builds_a_hierarchical_one(networks: Callable) -> None:
     actor, worker, manager = networks()
     loss = HierarchicalPPOLoss(actor, worker, manager)

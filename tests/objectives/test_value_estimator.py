@@ -364,7 +364,9 @@ def test_mismatched_critic_shapes(networks: Callable) -> None:
         in_keys=[(GROUP, "manager_observation")],
         out_keys=[(GROUP, "manager_value")],
     )
-    with pytest.raises(ValueError, match=r"\(3, 7, 4, 1\) but manager value .* \(3, 7, 4, 2\)"):
+    with pytest.raises(
+        ValueError, match=r"\(3, 7, 4, 1\) \(worker\) and \(3, 7, 4, 2\) \(manager\)"
+    ):
         estimator(worker, two_heads)(make_batch())
 
 
