@@ -247,7 +247,7 @@ def test_the_checker_flags(source: str, expected: str) -> None:
         "from tensordict.nn import TensorDictModuleBase, set_skip_existing",
         "class L(ClipPPOLoss):\n    class _AcceptedKeys(ClipPPOLoss.default_keys): pass",
         "self._critics = (worker, manager)",
-        "from rlhc.objectives._data import require",
+        "from rlhc.objectives.value import FusedValue",
         "loss.make_value_estimator(estimator)",
         "class T(Transform):\n    def _step(self, td, next_td): return next_td",
         "class E(EnvBase):\n    def _set_seed(self, seed): pass",
