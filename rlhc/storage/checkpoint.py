@@ -1,62 +1,21 @@
-"""Checkpoints: everything needed to continue a run exactly where it was saved.
+"""Checkpoints: everything needed to continue a run where it was saved.
 
-A run directory holds ``checkpoints/step_<frames>.pt`` files and a ``latest.pt``
-symlink to the newest (and, once the budget is reached, the much smaller
-``final_team.pt`` that matches play from: :mod:`rlhc.storage.final_team`). Both survive a kill
-at any instant:
+A run directory holds ``checkpoints/step_<frames>.pt`` files and a ``latest.pt`` symlink
+to the newest, each written atomically (a temporary file, ``fsync``, a rename), so a
+kill at any instant leaves complete files. A kill between a save and the relink leaves
+the link stale, so :func:`load_checkpoint` takes the first file of
+:func:`checkpoint_candidates` that loads.
 
-- every file is written to a hidden temporary file in the same directory, flushed to
-  disk (``fsync``) and renamed over its final name (``os.replace``, atomic on POSIX),
-  so a ``step_*.pt`` file is either absent or complete, and ``latest.pt`` always names
-  a file that was complete when it was linked;
-- a run directory is not resolved through ``latest.pt`` alone: a kill between writing
-  ``step_N.pt`` and relinking ``latest.pt`` leaves the link stale (or missing, after
-  the first save), and a crash of the machine can still truncate a file.
-  :func:`checkpoint_candidates` orders a run's files newest first and
-  :func:`load_checkpoint` takes the first one that loads, warning about those skipped.
+**Loading never runs code.** Checkpoints and final teams are shared, and unpickling can
+run anything, so every file is read with torch's weights-only loader (tensors, numbers,
+strings, containers and :data:`NUMPY_ARRAYS`); a file needing more is refused unread.
 
-Temporary files left behind by a kill (``.step_<frames>.pt.<pid>.<hex>.tmp``) are never
-read.
-
-**Loading never runs code.** Checkpoints and final teams are shared (a study's teams are
-committed, a team file is passed around to play), and unpickling an arbitrary object
-can run anything. Every file is read with torch's weights-only loader: tensors, numbers,
-strings and containers, plus the numpy arrays of :data:`NUMPY_ARRAYS`. A file that needs
-anything else is refused unread, the message naming the file and what it carried.
-
-**What a resume restores, and what it does not.** A checkpoint holds every group's
-actor and both critics, Adam's state, the observation normaliser's running statistics,
-the counters (frames, updates, wall time), the game's random generator and the global
-random states of python, numpy and torch; the learning-rate, entropy and clip schedules
-are functions of the frame count, so they continue unchanged. It does not hold the
-state of the worlds: positions, velocities, the decisions of the episodes in progress
-and the returns being summed for them. So, compared with a run that was never stopped:
-
-- every world restarts from a reset. The episodes in progress at the save are cut
-  short: what they collected before the save was trained on, but they are never
-  finished nor counted in ``metrics.csv``;
-- from the first update after the resume on, the collected experience (and so the
-  weights and every metric) differs from the uninterrupted run's: the same
-  distribution, not the same numbers. Resuming the same checkpoint twice does give the
-  same run (a test pins it);
-- a summary window still open at the save (a stop between two summaries) is lost: the
-  next row of ``metrics.csv`` covers only the updates after the resume. Rows past the
-  checkpoint's frame count are dropped and TensorBoard hides its points past it, so the
-  curve has neither duplicates nor points of the abandoned branch;
-- ``wall_time`` continues from the saved value (the pause is not counted); the periodic
-  evaluation rebuilds its worlds from their seed.
-
-Saving the worlds would need the game's physics state, the collector's carried
-observations and the transforms' counters; it is not done.
-
-A resume must keep what the saved weights belong to: :func:`config_differences` names
-the settings that differ (the game, the critics, the networks); the budget, logging,
-evaluation and checkpoint periods, ``env.num_envs`` and PPO's other hyperparameters may
-change.
+What a resume restores: [Training and resuming](../guide/training.md#stopping-and-resuming).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import random
 import re
@@ -74,10 +33,9 @@ LATEST = "latest.pt"
 STEP_GLOB = "step_*.pt"
 FORMAT_VERSION = 1
 _STEP_NAME = re.compile(r"step_(\d+)\.pt")
-#: What a checkpoint holds besides tensors, numbers, strings and containers: numpy
-#: arrays, in numpy's random state (``uint32``) and the league's opponents (``int64``).
-#: numpy pickles an array as a call of its ``_reconstruct``, whose module moved in numpy 2:
-#: ``__reduce__`` names the one this numpy has.
+#: The numpy arrays a checkpoint holds (numpy's random state, the league's opponents).
+#: An array pickles as a call of ``_reconstruct``, whose module moved in numpy 2:
+#: ``__reduce__`` names this numpy's.
 NUMPY_ARRAYS: list[Any] = [
     np.ndarray,
     np.dtype,
@@ -88,14 +46,11 @@ NUMPY_ARRAYS: list[Any] = [
 #: The type or function a refused file needs, in torch's weights-only error message.
 _REFUSED = re.compile(r"GLOBAL (\S+)|got <class '([^']+)'>")
 
-#: Config sections a resume may not change: the game, the value fusion and the
-#: networks are what the saved weights belong to.
+#: Config sections a resume may not change: what the saved weights belong to.
 FIXED_SECTIONS = ("env", "critic", "model")
-#: Keys outside those sections that a resume may not change either: the normaliser's
-#: statistics are part of the policy's input.
+#: Nor these keys: the normaliser's statistics are part of the policy's input.
 FIXED_KEYS = ("algo.normalize_observations",)
-#: Keys inside them that may change: how many worlds are simulated at once changes
-#: neither an update nor the budget.
+#: Keys in those sections that may change: the worlds stepped at once change no update.
 FREE_KEYS = ("env.num_envs",)
 
 
@@ -104,12 +59,8 @@ class ResumeError(ValueError):
 
 
 def save_checkpoint(path: Path, state: dict[str, Any]) -> None:
-    """Write ``state`` to ``path`` atomically and point ``latest.pt`` at it.
-
-    Args:
-        path: the checkpoint file, by convention ``<run>/checkpoints/step_<frames>.pt``;
-            ``latest.pt`` is linked next to it.
-        state: what to store (``format_version`` is added).
+    """Write ``state`` to ``path`` (``<run>/checkpoints/step_<frames>.pt``) atomically, then
+    link the ``latest.pt`` beside it to it.
 
     Raises:
         ValueError: ``path`` is named ``latest.pt`` (the link, not a checkpoint).
@@ -129,11 +80,7 @@ def save_checkpoint(path: Path, state: dict[str, Any]) -> None:
 
 
 def write_atomically(path: Path, state: Mapping[str, Any]) -> None:
-    """Write ``state`` (plus ``format_version``) to ``path``: complete, or not at all.
-
-    A hidden temporary file in the same directory is written, flushed to disk and
-    renamed over ``path``; the directory entry is flushed too.
-    """
+    """Write ``state`` (plus ``format_version``) to ``path``: complete, or not at all."""
     directory = path.parent
     directory.mkdir(parents=True, exist_ok=True)
     tmp = _temporary(path)
@@ -162,26 +109,14 @@ def step_of(path: Path) -> int | None:
 
 
 def checkpoint_candidates(run_dir: str | os.PathLike[str]) -> list[Path]:
-    """A run directory's checkpoint files, the one to resume from first.
+    """A run directory's checkpoint files (resolved, nothing loaded), the one to resume first.
 
-    Files are looked for in ``<run_dir>/checkpoints/`` and then in ``run_dir`` itself
-    (for a ``checkpoints`` directory given directly). Within a directory the order is
-
-    1. ``step_*.pt`` files with more frames than ``latest.pt``'s target and written no
-       earlier than it (saved, then killed before ``latest.pt`` was relinked), most
-       frames first;
-    2. ``latest.pt``'s target (skipped if the link dangles);
-    3. the other ``step_*.pt`` files, most frames first.
-
-    Trusting the link over frame counts keeps a run resumed from an earlier checkpoint
-    into its own directory on its new branch; the modification times keep a copied
-    run directory (fresh times in any order) on its newest file.
-
-    Args:
-        run_dir: a run directory (or its ``checkpoints`` directory).
-
-    Returns:
-        Resolved paths, without duplicates; empty if there are none. Nothing is loaded.
+    Looked for in ``<run_dir>/checkpoints/``, then in ``run_dir`` itself. Within a
+    directory: first ``step_*.pt`` files with more frames than ``latest.pt``'s target and
+    written no earlier (killed before the relink), then that target, then the other
+    ``step_*.pt`` files, most frames first. Trusting the link over frame counts keeps a run
+    resumed from an earlier checkpoint on its new branch; the modification times keep a
+    copied run directory on its newest file.
     """
     root = Path(run_dir).expanduser()
     ordered: list[Path] = []
@@ -192,7 +127,6 @@ def checkpoint_candidates(run_dir: str | os.PathLike[str]) -> list[Path]:
 
 
 def _ordered_in(folder: Path) -> list[Path]:
-    """:func:`checkpoint_candidates` of one directory (already resolved)."""
     steps = sorted(
         (p for p in folder.glob(STEP_GLOB) if step_of(p) is not None and p.is_file()),
         key=lambda p: step_of(p) or 0,
@@ -214,22 +148,19 @@ def _ordered_in(folder: Path) -> list[Path]:
 
 
 def load_checkpoint(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """Load a checkpoint written by :func:`save_checkpoint`.
+    """Load a checkpoint written by :func:`save_checkpoint` (weights only).
 
     Args:
-        path: a checkpoint file, or a run directory: its newest checkpoint that loads
-            (order of :func:`checkpoint_candidates`). Files skipped on the way (e.g.
-            truncated) are named in one warning.
+        path: a checkpoint file, or a run directory: its first checkpoint that loads, in
+            the order of :func:`checkpoint_candidates` (those skipped named in a warning).
 
     Returns:
         The stored state, plus ``"path"``: the file that was loaded.
 
     Raises:
         FileNotFoundError: ``path`` does not exist, or is a directory holding no
-            checkpoint that loads; the message names the directory, what was looked
-            for and why each file found was rejected.
-        ValueError: ``path`` is a file that is not a loadable rlhc checkpoint (named,
-            with the reason).
+            checkpoint that loads (why each file was rejected is named).
+        ValueError: ``path`` is a file that is not a loadable rlhc checkpoint.
 
     Examples:
         >>> state = load_checkpoint("outputs/soccer/hierarchical/<time>")  # doctest: +SKIP
@@ -251,7 +182,6 @@ def load_checkpoint(path: str | os.PathLike[str]) -> dict[str, Any]:
 
 
 def _load_newest(run_dir: Path) -> dict[str, Any]:
-    """The first loadable file of :func:`checkpoint_candidates`, warning about skipped ones."""
     skipped: list[str] = []
     for file in checkpoint_candidates(run_dir):
         try:
@@ -267,21 +197,16 @@ def _load_newest(run_dir: Path) -> dict[str, Any]:
                 stacklevel=3,
             )
         return state
-    looked_for = (
+    failed = f"; every file found failed to load: {'; '.join(skipped)}" if skipped else ""
+    raise FileNotFoundError(
+        f"no {'loadable ' if skipped else ''}checkpoint in run directory {str(run_dir)!r}: "
         f"looked for {CHECKPOINT_DIR}/{LATEST} and {CHECKPOINT_DIR}/{STEP_GLOB} "
-        f"(or {LATEST} and {STEP_GLOB} directly inside it)"
+        f"(or {LATEST} and {STEP_GLOB} directly inside it){failed}"
     )
-    if skipped:
-        raise FileNotFoundError(
-            f"no loadable checkpoint in run directory {str(run_dir)!r}: {looked_for}; "
-            f"every file found failed to load: {'; '.join(skipped)}"
-        )
-    raise FileNotFoundError(f"no checkpoint in run directory {str(run_dir)!r}: {looked_for}")
 
 
 def _read(file: Path) -> dict[str, Any]:
-    """Load ``file`` (weights only); a ``ValueError`` whose message is the reason if it is
-    no checkpoint."""
+    """Load ``file`` weights only; a ``ValueError`` saying why if it is no checkpoint."""
     try:
         with torch.serialization.safe_globals(NUMPY_ARRAYS), warnings.catch_warnings():
             # A plain pickle's protocol draws a warning from torch before it is refused.
@@ -318,25 +243,18 @@ def _fsync_directory(directory: Path) -> None:
     except OSError:  # e.g. Windows
         return
     try:
-        os.fsync(fd)
-    except OSError:  # some filesystems refuse fsync on directories
-        pass
+        with contextlib.suppress(OSError):  # some filesystems refuse fsync on directories
+            os.fsync(fd)
     finally:
         os.close(fd)
 
 
 def run_dir_of(resume: str | os.PathLike[str]) -> Path | None:
-    """The run directory a ``resume`` path belongs to, ``None`` if it names none.
+    """The run directory of ``resume`` (a run directory, its ``checkpoints`` directory or a
+    file in it), as given; ``None`` for a path that does not exist or is in no run.
 
-    A resumed run writes into the run it continues (one ``metrics.csv``, one TensorBoard
-    run): ``rlhc.run`` sets ``hydra.run.dir`` from this unless given explicitly.
-
-    Args:
-        resume: a run directory, its ``checkpoints`` directory, or a file in it.
-
-    Returns:
-        The run directory, as given (relative stays relative); ``None`` for a path that
-        does not exist or is not inside a run (e.g. a ``.pt`` file copied elsewhere).
+    A resumed run writes into the run it continues: ``rlhc.run`` sets ``hydra.run.dir``
+    from this unless given explicitly.
 
     Examples:
         >>> run_dir_of("outputs/tennis/hierarchical/2025-01-01_00-00-00/checkpoints/latest.pt")  # doctest: +SKIP
@@ -355,13 +273,9 @@ def run_dir_of(resume: str | os.PathLike[str]) -> Path | None:
 def config_differences(stored: Mapping[str, Any], current: Mapping[str, Any]) -> list[str]:
     """The settings a resume may not change that differ, as ``key: stored -> current``.
 
-    Compares :data:`FIXED_SECTIONS` (but :data:`FREE_KEYS`) and :data:`FIXED_KEYS`.
-    A key that only one side has (a setting added or removed by a code change) is not
-    compared: the weights' shapes are checked when they are loaded.
-
-    Args:
-        stored: the checkpoint's ``config`` (a plain nested dict).
-        current: the config of the run that would continue it, alike.
+    Compares :data:`FIXED_SECTIONS` (but :data:`FREE_KEYS`) and :data:`FIXED_KEYS` of two
+    plain nested configs. A key only one side has (added or removed by a code change) is
+    not compared: the weights' shapes are checked when they are loaded.
 
     Examples:
         >>> config_differences({"model": {"hidden_size": 32}, "env": {"num_envs": 4}},
@@ -377,13 +291,13 @@ def config_differences(stored: Mapping[str, Any], current: Mapping[str, Any]) ->
     return differing
 
 
-def flatten(config: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    """``{"a": {"b": 1}} -> {"a.b": 1}`` (lists are kept as values)."""
+def flatten(config: Mapping[str, Any], prefix: str = "", sep: str = ".") -> dict[str, Any]:
+    """``{"a": {"b": 1}} -> {"a.b": 1}``, keys joined by ``sep`` (lists are kept as values)."""
     flat: dict[str, Any] = {}
     for key, value in config.items():
         name = f"{prefix}{key}"
         if isinstance(value, Mapping):
-            flat.update(flatten(value, f"{name}."))
+            flat.update(flatten(value, f"{name}{sep}", sep))
         else:
             flat[name] = value
     return flat

@@ -1,22 +1,11 @@
-"""A finished run's final team: the policy part of its last checkpoint, small enough to keep.
+"""A finished run's final team: the policy part of its last checkpoint, small enough to commit.
 
-A checkpoint (:mod:`rlhc.storage.checkpoint`) holds everything a resume needs — both critics,
-Adam's moments, the random states — and is not meant to be committed. A match needs
-far less: the actors, the observation normaliser and the config they were built from.
-When a run reaches its budget the trainer also writes ``<run dir>/final_team.pt`` with
-exactly that (:data:`TEAM_KEYS`), in the checkpoint file format, so
-
-- a study's teams survive without their checkpoints (a fresh clone can still play them
-  in a round robin or with ``python -m rlhc.evaluate home=<run dir>``);
-- the file names what plays: a round robin versions a team by this file's hash, which
-  is the same on every machine that holds the run.
-
-A resume never reads it: :func:`rlhc.storage.checkpoint.checkpoint_candidates` looks only for
-``checkpoints/step_*.pt`` and ``latest.pt``.
+A match needs only :data:`TEAM_KEYS` of a checkpoint. A run that reaches its budget also
+writes them to ``<run dir>/final_team.pt`` (checkpoint format), so a study's teams play
+without their checkpoints, and a round robin versions a team by the file's hash.
 
 Examples:
-    A final team is what :data:`TEAM_KEYS` names of a checkpoint (here a stand-in with
-    no weights):
+    A stand-in checkpoint without weights:
 
     >>> import tempfile
     >>> run = Path(tempfile.mkdtemp())
@@ -48,7 +37,7 @@ def team_state(state: Mapping[str, Any]) -> dict[str, Any]:
     """The :data:`TEAM_KEYS` of a checkpoint's ``state``.
 
     Raises:
-        KeyError: ``state`` lacks one of them (all missing ones are named).
+        KeyError: ``state`` lacks some of them (all named).
     """
     missing = [key for key in TEAM_KEYS if key not in state]
     if missing:
@@ -66,13 +55,11 @@ def save_team(run_dir: str | os.PathLike[str], state: Mapping[str, Any]) -> Path
 
 
 def export_team(run_dir: str | os.PathLike[str]) -> Path:
-    """Write the final team of ``run_dir`` from its newest checkpoint that loads; its path.
-
-    For runs trained before the trainer wrote the file itself, or to refresh it.
+    """Write the final team of ``run_dir`` from its newest checkpoint that loads (for runs
+    trained before the trainer wrote it); its path.
 
     Raises:
-        FileNotFoundError: the directory holds no loadable checkpoint (as
-            :func:`rlhc.storage.checkpoint.load_checkpoint`).
+        FileNotFoundError: the directory holds no loadable checkpoint.
     """
     return save_team(run_dir, load_checkpoint(run_dir))
 
@@ -90,17 +77,15 @@ def load_team(path: str | os.PathLike[str]) -> dict[str, Any]:
     """What plays for ``path``: a run directory's final team, else its newest checkpoint.
 
     Args:
-        path: a run directory (its ``final_team.pt`` if it has one, else its newest
-            loadable checkpoint: an unfinished run plays as far as it got), or a
+        path: a run directory (an unfinished run plays from its newest checkpoint), or a
             final-team or checkpoint file.
 
     Returns:
-        The stored state, with ``"path"``: the file that was loaded.
+        The stored state, with ``"path"``.
 
     Raises:
-        FileNotFoundError: ``path`` does not exist, or is a directory with neither file
-            (both looked for are named).
-        ValueError: the file is not a loadable rlhc checkpoint (named, with the reason).
+        FileNotFoundError: ``path`` does not exist, or is a directory with neither file.
+        ValueError: the file is not a loadable rlhc checkpoint.
     """
     file = team_file(path)
     if file is not None:

@@ -1,15 +1,9 @@
 """One training process per run directory: ``<run dir>/run.lock``.
 
 Two processes training into one directory would interleave its ``metrics.csv`` and
-overwrite each other's checkpoints. The process that trains holds an exclusive
-``fcntl.flock`` on ``run.lock``, which names its pid, from before anything is written
-until its job ends; another process is refused (:class:`RunDirInUse`), naming it.
-
-``flock`` rather than a pid file alone: the kernel drops the lock when its process ends,
-however it ends (``kill -9``, a crash), so a lock file left behind holds nothing and the
-next process takes it over (with a warning naming the pid that left it), and neither a
-reused pid nor two processes taking over one stale file at once can fool it. POSIX only
-(``fcntl``).
+checkpoints. The trainer holds an exclusive ``fcntl.flock`` on ``run.lock`` (naming its
+pid): unlike a pid file, the kernel drops it however its process ends, so a file left by
+a crash is taken over, and a reused pid cannot fool it. POSIX only.
 """
 
 from __future__ import annotations
@@ -33,9 +27,7 @@ class RunDirInUse(RuntimeError):
 
 
 def lock_run_dir(run_dir: Path) -> None:
-    """Hold ``run_dir``'s lock until :func:`unlock_run_dirs` (or this process ends).
-
-    Creates ``run_dir`` if needed; holding it already is a no-op.
+    """Hold ``run_dir``'s lock (creating it) until :func:`unlock_run_dirs` or the process ends.
 
     Raises:
         RunDirInUse: another process holds it.

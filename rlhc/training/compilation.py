@@ -1,17 +1,9 @@
 """``compile=true``: the minibatch loss under ``torch.compile``, or eager where torch cannot.
 
-TorchDynamo traces the loss of every group (actor, critics, fusion, PPO terms, learner
-weighting) into one graph and AOTAutograd compiles its backward with it; the optimiser
-step stays eager (Adam's ``fused`` kernel, already one kernel over every parameter), so
-the learning-rate schedule and a restored optimiser state cost no recompilation.
-
-A compiled loss is not the eager one to the bit: Inductor fuses and reorders float
-arithmetic. On a collected batch its losses and gradients match the eager ones to float
-rounding (``tests/test_compile.py``); Adam's first steps divide by the root of the
-squared gradients, so a parameter whose gradient is near zero can move by up to a
-fraction of the learning rate differently (measured after one minibatch: at most
-2.8e-6 on soccer at Table 3), and like any perturbation of PPO the runs then diverge.
-Hence ``compile=false`` by default: a seeded run is reproducible to the bit only eagerly.
+The loss and its backward compile into one graph; Adam's step stays eager, so the
+learning-rate schedule and a restored optimiser cost no recompilation. Compiled float
+arithmetic is not the eager one to the bit, so a seeded run reproduces exactly only
+eagerly: hence ``compile=false`` by default.
 """
 
 from __future__ import annotations
@@ -33,24 +25,19 @@ R = TypeVar("R")
 def compile_problem() -> str | None:
     """Why this torch build cannot compile here (``None``: it can).
 
-    Compiles and runs a two-operation function with the default backend (Inductor),
-    which needs, among others, a supported Python version and, on CPU, a C++ compiler.
+    Compiles a two-operation function with Inductor, which needs a supported Python and,
+    on CPU, a C++ compiler.
     """
     try:
-        torch.compile(_probe, dynamic=False)(torch.ones(2))
+        torch.compile(lambda x: torch.tanh(x) * 2, dynamic=False)(torch.ones(2))
     except Exception as error:  # any failure to compile means: run eagerly
         return f"{type(error).__name__}: {str(error).splitlines()[0] if str(error) else ''}"
     return None
 
 
-def _probe(x: torch.Tensor) -> torch.Tensor:
-    return torch.tanh(x) * 2
-
-
 def compiled(fn: Callable[P, R]) -> Callable[P, R]:
-    """``torch.compile(fn)``, its first call's seconds logged (compilation included); or
-    ``fn`` itself, with a one-line warning, where :func:`compile_problem` finds that this
-    torch build cannot compile.
+    """``torch.compile(fn)``, its first call's seconds logged; or ``fn`` itself, with a
+    one-line warning, where :func:`compile_problem` finds that torch cannot compile.
 
     Examples:
         >>> loss = compiled(trainer.minibatch_loss)  # doctest: +SKIP

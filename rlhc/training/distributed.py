@@ -1,40 +1,21 @@
 """One run on several processes: ``torchrun --nproc_per_node=N -m rlhc.run …``.
 
-``torchrun`` starts ``N`` copies of ``rlhc.run`` and tells each its ``RANK`` and
-``WORLD_SIZE``; :func:`setup` joins them with ``torch.distributed`` (gloo on CPU, NCCL
-on CUDA). Plain ``python -m rlhc.run`` is one process and never touches any of this.
-Both ways of sharing a run keep Table 3's semantics: the same world-decisions per
-update, minibatches, epochs and budget (``algo.max_steps`` counts every process's
-worlds).
+:func:`setup` joins the processes ``torchrun`` started (gloo on CPU, NCCL on CUDA); plain
+``python -m rlhc.run`` is one process and never touches this module. Both modes keep the
+update of one process ([Performance](../guide/performance.md#several-processes)):
 
-| ``parallel=`` | who collects | who updates | per update | behaviour policy |
-|---|---|---|---|---|
-| ``data`` | every rank, ``num_envs / N`` worlds | every rank, its ``1/N`` of each minibatch | an all-reduce of every gradient per minibatch, and of the advantage and weight statistics | the current one, as one process |
-| ``pipeline`` (``N = 2``) | rank 1, every world | rank 0 | the batch goes 1 → 0, the actors' weights 0 → 1 | one update older (below) |
-
-``data`` computes exactly the update one process computes on the same minibatch
-(``tests/test_distributed.py`` checks the gradient to 1e-6): advantages are
-standardised with the statistics of the whole minibatch and every loss term is a mean
-over the whole minibatch's weights, so the summed gradients are the single-process
-gradient. The observation normaliser's statistics are averaged over the ranks after
-every collection (each rank saw ``1/N`` of the worlds), and episode metrics, league
-results and the stop signal are merged, so every rank holds the same state. Rank 0
-alone logs, evaluates and writes checkpoints; a checkpoint resumes with any ``N``.
-
-``pipeline`` overlaps collection with the update: while rank 0 trains on batch ``k``,
-rank 1 collects batch ``k + 1``. Batch ``k + 1`` is therefore collected with the weights
-rank 0 had *before* its update on batch ``k``, and trained on by the weights *after* it:
-the behaviour policy is exactly one update behind (batch 0 and batch 1 are both
-collected with the initial weights). PPO's ratio stays the right importance weight,
-because it divides by the behaviour policy's own log-probabilities, stored with each
-action; the clip range is then measured from that policy. The value targets use the
-learner's current critics, as in one process.
+- ``parallel=data``: every rank steps ``num_envs / N`` worlds and computes ``1/N`` of every
+  minibatch; gradients and the advantage and weight statistics are summed over the
+  ranks, so each holds exactly the single-process update.
+- ``parallel=pipeline`` (``N = 2``): rank 1 collects batch ``k + 1`` while rank 0 trains on
+  batch ``k``, so the behaviour policy is one update behind. PPO's ratio stays the right
+  importance weight: it divides by the log-probabilities stored with each action.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -55,8 +36,8 @@ class Processes:
 
     Attributes:
         rank: this process's rank (0 logs and checkpoints).
-        size: processes in the run (1: plain ``python -m rlhc.run``).
-        mode: ``data`` or ``pipeline`` (see the module docstring).
+        size: processes in the run.
+        mode: ``data`` or ``pipeline``.
 
     Examples:
         >>> Processes().collects, Processes().learns, Processes().shards
@@ -143,14 +124,10 @@ def all_reduce_sum(tensor: torch.Tensor) -> torch.Tensor:
 
 
 def all_reduce_gradients(parameters: Sequence[torch.nn.Parameter]) -> None:
-    """Sum every parameter's gradient over the processes with one all-reduce.
-
-    The gradients are flattened into one buffer (one collective per minibatch rather
-    than one per tensor); a parameter without a gradient contributes zeros and gets
-    the sum of the others.
-    """
+    """Sum every parameter's gradient over the processes in one all-reduce (a parameter
+    without a gradient contributes zeros)."""
     grads = [p.grad if p.grad is not None else torch.zeros_like(p) for p in parameters]
-    flat = torch.cat([g.reshape(-1) for g in grads])
+    flat = _flat(grads)
     dist.all_reduce(flat, op=dist.ReduceOp.SUM)
     for parameter, chunk in zip(parameters, flat.split([g.numel() for g in grads]), strict=True):
         parameter.grad = chunk.view_as(parameter)
@@ -158,21 +135,28 @@ def all_reduce_gradients(parameters: Sequence[torch.nn.Parameter]) -> None:
 
 def broadcast_parameters(parameters: Sequence[torch.Tensor], src: int = 0) -> None:
     """Overwrite every process's ``parameters`` with those of rank ``src``."""
-    with torch.no_grad():
-        flat = torch.cat([p.detach().reshape(-1) for p in parameters])
-        dist.broadcast(flat, src=src)
-        for parameter, chunk in zip(
-            parameters, flat.split([p.numel() for p in parameters]), strict=True
-        ):
-            parameter.copy_(chunk.view_as(parameter))
+    flat = _flat(parameters)
+    dist.broadcast(flat, src=src)
+    _load_flat(parameters, flat)
+
+
+def _flat(tensors: Sequence[torch.Tensor]) -> torch.Tensor:
+    """``tensors`` in one flat buffer: one collective rather than one per tensor."""
+    return torch.cat([t.detach().reshape(-1) for t in tensors])
+
+
+@torch.no_grad()
+def _load_flat(parameters: Sequence[torch.Tensor], flat: torch.Tensor) -> None:
+    """Copy a :func:`_flat` buffer back into ``parameters``."""
+    for parameter, chunk in zip(
+        parameters, flat.split([p.numel() for p in parameters]), strict=True
+    ):
+        parameter.copy_(chunk.view_as(parameter))
 
 
 def average_floating_state(state: Mapping[str, Any]) -> dict[str, Any]:
-    """A copy of a (nested) state dict with every floating tensor averaged over processes.
-
-    Used for the observation normaliser (``VecNormV2``'s running mean and variance):
-    integer entries (counts, flags) are equal on every rank and kept.
-    """
+    """A copy of a nested state dict with every floating tensor averaged over processes
+    (integer entries, counts and flags, are equal everywhere)."""
     merged: dict[str, Any] = {}
     for key, value in state.items():
         if isinstance(value, Mapping):
@@ -219,24 +203,18 @@ def receive_batch(src: int = COLLECTOR_RANK) -> tuple[TensorDictBase, dict[str, 
 
 
 class WeightChannel:
-    """The actors' weights, sent from the learner to the collector after each update.
-
-    One flat tensor of every actor parameter plus a last entry, 1 to go on collecting
-    or 0 to stop. The learner's send does not wait (``isend``): the collector is busy
-    sending the next batch, which the learner receives right after.
-    """
+    """The actors' weights and whether to go on, one flat tensor sent from the learner to the
+    collector after each update; the send does not wait (the collector is busy sending the
+    next batch, which the learner receives right after)."""
 
     def __init__(self, parameters: Sequence[torch.Tensor]) -> None:
         self.parameters = list(parameters)
-        self.sizes = [p.numel() for p in self.parameters]
         self._pending: Any = None
 
     def send(self, go_on: bool, dst: int = COLLECTOR_RANK) -> None:
         """Learner: post the current weights and whether to continue."""
         self.wait()
-        with torch.no_grad():
-            flat = torch.cat([p.detach().reshape(-1) for p in self.parameters])
-        self._buffer = torch.cat([flat, torch.tensor([float(go_on)])])
+        self._buffer = torch.cat([_flat(self.parameters), torch.tensor([float(go_on)])])
         self._pending = dist.isend(self._buffer, dst=dst)
 
     def wait(self) -> None:
@@ -247,17 +225,7 @@ class WeightChannel:
 
     def receive(self, src: int = LEARNER_RANK) -> bool:
         """Collector: load the learner's weights into ``parameters``; whether to go on."""
-        buffer = torch.empty(sum(self.sizes) + 1)
+        buffer = torch.empty(sum(p.numel() for p in self.parameters) + 1)
         dist.recv(buffer, src=src)
-        with torch.no_grad():
-            for parameter, chunk in zip(
-                self.parameters, buffer[:-1].split(self.sizes), strict=True
-            ):
-                parameter.copy_(chunk.view_as(parameter))
+        _load_flat(self.parameters, buffer[:-1])
         return bool(buffer[-1].item())
-
-
-def remote_batches() -> Iterator[tuple[TensorDictBase, dict[str, Any]]]:
-    """Learner: the collector's batches, as they arrive."""
-    while True:
-        yield receive_batch()

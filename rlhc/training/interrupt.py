@@ -1,16 +1,8 @@
 """Stopping a run cleanly on SIGINT (Ctrl-C) or SIGTERM (``kill``, a scheduler's stop).
 
-The default reactions end the process wherever it is: a ``KeyboardInterrupt`` raised
-inside TorchRL's collector (which then fails on its half-written TensorDicts) or an
-immediate exit that loses the frames since the last checkpoint. While
-:class:`StopSignals` is active, either signal only records that a stop was asked for;
-the training loop finishes the update in progress, writes a checkpoint and raises
-:class:`TrainingInterrupted`, and ``rlhc.run`` exits ``128 + signal`` (130 / 143),
-as a shell reports a process ended by that signal.
-
-A second signal is not intercepted: it ends the process at once, as it would have
-without :class:`StopSignals` (the checkpoints written so far are complete, see
-:mod:`rlhc.storage.checkpoint`).
+The default reactions end the process wherever it is, losing the frames since the last
+checkpoint. Under :class:`StopSignals` the loop finishes the update, writes a checkpoint
+and raises :class:`TrainingInterrupted`; a second signal ends the process at once.
 """
 
 from __future__ import annotations
@@ -18,7 +10,7 @@ from __future__ import annotations
 import signal
 import threading
 from pathlib import Path
-from types import FrameType, TracebackType
+from types import FrameType
 from typing import Any
 
 #: The signals that stop a run cleanly.
@@ -26,14 +18,7 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 class TrainingInterrupted(Exception):
-    """Training stopped on a signal after saving a checkpoint.
-
-    Args:
-        signum: the signal received.
-        frames: world-decisions trained when it stopped.
-        checkpoint: the checkpoint just written (or the one already written at
-            ``frames``).
-    """
+    """Training stopped on signal ``signum`` at ``frames``, saved to ``checkpoint``."""
 
     def __init__(self, signum: int, frames: int, checkpoint: Path) -> None:
         self.signum = signum
@@ -54,11 +39,9 @@ class TrainingInterrupted(Exception):
 class StopSignals:
     """While active (``with``), SIGINT and SIGTERM set :attr:`received` instead of acting.
 
-    The first signal restores the previous handlers, so a second one acts as usual
-    (Ctrl-C twice: ``KeyboardInterrupt`` at once). A signal that was ignored when the
-    block was entered (e.g. SIGINT of a job started with ``nohup`` or ``&``) stays
-    ignored. Outside the main thread, where Python cannot install handlers, nothing
-    changes and :attr:`received` stays ``None``.
+    The first signal restores the previous handlers, so a second one acts as usual. A
+    signal ignored on entry (SIGINT under ``nohup``) stays ignored; outside the main
+    thread, where Python cannot install handlers, nothing changes.
 
     Examples:
         >>> with StopSignals() as stop:
@@ -77,12 +60,7 @@ class StopSignals:
                     self._previous[signum] = signal.signal(signum, self._handle)
         return self
 
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        error: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
+    def __exit__(self, *exc_info: object) -> None:
         self._restore()
 
     def _handle(self, signum: int, frame: FrameType | None) -> None:

@@ -1,29 +1,11 @@
 """A league of opponents: who the learning team plays in each world (beyond the paper).
 
-The paper trains by symmetric self-play: both teams of every world are the learning
-policy. Pure self-play can settle into a joint habit (in soccer: neither team ever
-scores), which is why ML-Agents later added its *ghost* trainer: the learner plays
-frozen snapshots of its past selves and its Elo is tracked while it trains. Here a
-configurable share of the worlds of the training env puts the learning team against
-
-| kind | opponent |
-|---|---|
-| ``self`` | itself (both teams learn: the paper's self-play) |
-| ``snapshot`` | a frozen copy of a past learner, from a pool saved every ``snapshot_interval`` updates (sampled uniformly or by Elo) |
-| ``scripted`` | the game's scripted team |
-| ``random`` | uniform random actions |
-
-In a league world the learner plays one team (worlds alternate the side); only its
-agents' experiences train: :class:`LeaguePolicy` marks each agent ``(g, "learner")``
-and every loss term is weighted by that mask (:mod:`rlhc.objectives.weighting`), so
-an opponent's experiences carry no gradient and no statistics. Each world draws its
-snapshot when an episode starts, so an episode is played against one opponent, whose
-result (win, draw, loss) updates the Elo ratings (:mod:`rlhc.evaluation.elo`) of the
-learner and that opponent.
-The pool, the ratings and the draws' generator are saved in checkpoints.
-
-The worlds' kinds are fixed for a run: ``round(share × worlds)`` of each kind (largest
-remainder), in the order self, snapshot, scripted, random.
+Pure self-play (the paper's) can settle into a joint habit (in soccer: neither team
+scores), hence ML-Agents' later *ghost* trainer. Here fixed shares of the worlds play
+the learner against a past ``snapshot`` of itself, the ``scripted`` team or ``random``
+actions (:data:`KINDS`); only the learner's experiences train (every loss term is
+weighted by the ``(g, "learner")`` mask of :class:`LeaguePolicy`), and every result
+updates the Elo ratings (:mod:`rlhc.evaluation.elo`).
 """
 
 from __future__ import annotations
@@ -54,7 +36,8 @@ SELF_ID, SCRIPTED_ID, RANDOM_ID = -1, -2, -3
 
 
 def allocate_worlds(shares: Mapping[str, float], num_worlds: int) -> np.ndarray:
-    """Each world's kind (an index into :data:`KINDS`), by largest remainder.
+    """Each world's kind (an index into :data:`KINDS`): ``round(share × worlds)`` of each,
+    by largest remainder.
 
     Examples:
         >>> allocate_worlds({"self": 0.5, "snapshot": 0.25, "scripted": 0.25, "random": 0}, 8)
@@ -80,13 +63,8 @@ class Snapshot:
 
 
 class League:
-    """The opponents of the learner in each world of one env, with their ratings.
-
-    Args:
-        cfg: the league settings (validated).
-        num_worlds: worlds of the training env.
-        seed: seed of the snapshot draws.
-    """
+    """The opponents of the learner in each of ``num_worlds`` worlds, with their ratings;
+    ``seed`` seeds the snapshot draws."""
 
     def __init__(self, cfg: LeagueConfig, num_worlds: int, seed: int) -> None:
         self.cfg = cfg
@@ -105,10 +83,8 @@ class League:
 
     # --- the pool ----------------------------------------------------------------------
     def add_snapshot(self, actors: Mapping[str, torch.nn.Module]) -> None:
-        """Freeze the learner's current actors into the pool (dropping the oldest).
-
-        A world whose snapshot leaves the pool draws another one at once.
-        """
+        """Freeze the learner's actors into the pool, dropping the oldest snapshot (whose
+        worlds draw another one at once)."""
         weights = {g: copy.deepcopy(actor.state_dict()) for g, actor in actors.items()}
         self.pool.append(Snapshot(self.next_id, weights, self.rating))
         self.next_id += 1
@@ -118,10 +94,8 @@ class League:
         self.draw(np.flatnonzero(orphaned))
 
     def draw(self, worlds: np.ndarray) -> None:
-        """New snapshot opponents for the snapshot ``worlds`` whose episode starts.
-
-        Before the first snapshot exists those worlds play the learner itself.
-        """
+        """New opponents for the snapshot ``worlds`` whose episode starts (the learner
+        itself while the pool is empty)."""
         if len(worlds) == 0:
             return
         if not self.pool:
@@ -134,9 +108,6 @@ class League:
             probabilities = np.full(len(self.pool), 1.0 / len(self.pool))
         chosen = self.rng.choice(len(self.pool), size=len(worlds), p=probabilities)
         self.opponent[worlds] = [self.pool[i].id for i in chosen]
-
-    def snapshot(self, snapshot_id: int) -> Snapshot:
-        return next(s for s in self.pool if s.id == snapshot_id)
 
     # --- results and ratings -----------------------------------------------------------
     def record(self, opponents: np.ndarray, scores: np.ndarray) -> None:
@@ -158,13 +129,8 @@ class League:
             self.results.append((opponent, score))
 
     def record_batch(self, batch: TensorDictBase, gather: Callable[[Any], list[Any]]) -> None:
-        """:meth:`record` the episodes that ended in a collected ``batch``.
-
-        Args:
-            batch: collected by :class:`LeaguePolicy`.
-            gather: every process's value in rank order (``lambda v: [v]`` for one
-                process): each process records every process's results.
-        """
+        """:meth:`record` the episodes that ended in a ``batch`` of :class:`LeaguePolicy`,
+        of every process (``gather``: every process's value in rank order)."""
         opponents, scores = zip(*gather(episode_results(batch)), strict=True)
         self.record(np.concatenate(opponents), np.concatenate(scores))
 
@@ -210,16 +176,8 @@ class League:
 
 
 def episode_results(batch: TensorDictBase) -> tuple[np.ndarray, np.ndarray]:
-    """The episodes that ended in a collected ``batch``: their opponents and scores.
-
-    Args:
-        batch: collected by :class:`LeaguePolicy` (``[N, T]``).
-
-    Returns:
-        ``(opponent ids, learner scores)``, one entry per ended episode (in a self-play
-        world too: :meth:`League.record` skips those); a score is 1 for a win, 0.5 for
-        a draw (no one scored), 0 for a loss.
-    """
+    """``(opponent ids, learner scores)`` of the episodes that ended in a ``batch`` of
+    :class:`LeaguePolicy`, self-play worlds included; 1 a win, 0.5 a draw, 0 a loss."""
     done = batch[NEXT, DONE].squeeze(-1)
     opponent = batch[OPPONENT].squeeze(-1)[done].cpu().numpy()
     learner_team = batch[LEARNER_TEAM].squeeze(-1)[done].cpu().numpy()
@@ -231,21 +189,18 @@ def episode_results(batch: TensorDictBase) -> tuple[np.ndarray, np.ndarray]:
 class LeaguePolicy(TensorDictModuleBase):
     """The collection policy: the learner everywhere, opponents where the league says.
 
-    Runs the learner on every agent (actions and log-probabilities), then, in each
-    league world, overwrites the actions of the opponent team's agents with those of
-    the world's opponent, and writes ``(g, "learner")`` (``bool [N, n_g, 1]``: the
-    learner chose this action), :data:`OPPONENT` and :data:`LEARNER_TEAM` (``[N, 1]``).
+    Runs the learner on every agent, then in each league world overwrites the opponent
+    team's actions with its opponent's, and writes ``(g, "learner")`` (``bool [N, n_g, 1]``:
+    the learner chose this action), :data:`OPPONENT` and :data:`LEARNER_TEAM` (``[N, 1]``).
 
     Args:
-        learner: the learning policy (all groups), e.g. a ``TensorDictSequential``.
+        learner: the learning policy (all groups).
         league: the league of this env.
-        env: the training env (a ``TransformedEnv`` over a
-            :class:`~rlhc.envs.torchrl_adapter.BatchedGameEnv`): the scripted team reads
-            its game; snapshots see the observations the learner sees.
+        env: the training env (the scripted team reads its game).
         make_actor: builds an empty actor of a group (to load snapshot weights into).
 
     Raises:
-        TypeError: ``env`` is not (a transformed) :class:`~rlhc.envs.torchrl_adapter.BatchedGameEnv`.
+        TypeError: ``env`` is not over a :class:`~rlhc.envs.torchrl_adapter.BatchedGameEnv`.
     """
 
     def __init__(
@@ -278,8 +233,7 @@ class LeaguePolicy(TensorDictModuleBase):
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         league = self.league
         starting = tensordict[STEP_COUNT].view(-1).cpu().numpy() == 0
-        snapshot_kind = KINDS.index("snapshot")
-        league.draw(np.flatnonzero(starting & (league.kinds == snapshot_kind)))
+        league.draw(np.flatnonzero(starting & (league.kinds == KINDS.index("snapshot"))))
         tensordict = self.learner(tensordict)
         n = len(league.opponent)
         device = tensordict.device
@@ -332,7 +286,7 @@ class LeaguePolicy(TensorDictModuleBase):
     def _snapshot_actions(
         self, tensordict: TensorDictBase, snapshot_id: int
     ) -> dict[str, torch.Tensor]:
-        snapshot = self.league.snapshot(snapshot_id)
+        snapshot = next(s for s in self.league.pool if s.id == snapshot_id)
         out = {}
         for group, actor in self.frozen.items():
             if self._loaded.get(group) != snapshot_id:

@@ -1,37 +1,23 @@
-"""Metric logging: a tidy ``metrics.csv``, TensorBoard, TorchRL's wandb logger; progress lines.
-
-``metrics.csv`` has one row per summary and one column per metric (plus ``step``, the
-frame count). It is what ``rlhc.plot`` reads and what survives a resume: on resume,
-rows past the checkpoint's step are dropped, so the curve continues without a gap or
-a duplicate, and so is a torn last line (:func:`read_rows`). TensorBoard gets the same
-treatment: a resumed run appends to the run's own ``tb/<name>/`` and hides the points
-past the checkpoint's step (the event files' ``purge_step``, which torch's
-``SummaryWriter`` takes and TorchRL's ``TensorboardLogger`` does not pass on). wandb
-continues the same run too: its id is kept in the run directory's ``wandb_run_id``
-file, written at the first start and passed back on every resume
-(``wandb.init(id=…, resume="allow")``).
-
-:class:`ProgressLines` writes a line to the ``logging`` module every tenth of the
-budget; ``rlhc.run``'s Hydra logging sends it to stdout and the run's ``run.log``.
+"""Metric logging: ``metrics.csv`` (a row per summary, a column per metric, ``step`` the
+frames), TensorBoard and wandb. A resume continues each without a gap or a duplicate: the
+CSV drops its rows past the checkpoint's step, TensorBoard hides its points past it
+(``purge_step``, which TorchRL's ``TensorboardLogger`` does not pass on), wandb continues
+the run whose id the run directory keeps.
 """
 
 from __future__ import annotations
 
 import csv
-import datetime
 import logging
 import math
 import os
-import re
 import secrets
-import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from rlhc.config.train_schema import LoggerConfig
-from rlhc.config.validation import WANDB_MODES, check_logger
-from rlhc.errors import ConfigError
+from rlhc.config.validation import check_logger
 
 METRICS_FILE = "metrics.csv"
 TENSORBOARD_DIR = "tb"
@@ -43,8 +29,6 @@ log = logging.getLogger(__name__)
 
 def wandb_mode(requested: str) -> str:
     """Resolve ``auto``: online only when an API key is configured (env var or netrc)."""
-    if requested not in WANDB_MODES:
-        raise ConfigError(f"logger.wandb_mode={requested!r}; allowed: {', '.join(WANDB_MODES)}")
     if requested != "auto":
         return requested
     if os.environ.get("WANDB_MODE"):
@@ -57,15 +41,8 @@ def wandb_mode(requested: str) -> str:
 
 
 def wandb_run_id(run_dir: Path, resume: bool) -> str:
-    """The id of the run directory's wandb run: a new one, or on a resume the kept one.
-
-    A fresh start writes a new id to ``<run_dir>/wandb_run_id``; a resume reads it back
-    (and writes a new one if the run started without wandb), so that wandb continues
-    the run the resumed one logged to, as ``metrics.csv`` and TensorBoard do.
-
-    Args:
-        run_dir: the run's directory.
-        resume: whether this start continues a checkpoint of the run.
+    """The id of the run directory's wandb run: on a ``resume`` the one kept in
+    ``<run_dir>/wandb_run_id``, else (or if none is kept) a new one, written there.
 
     Examples:
         >>> import tempfile
@@ -103,10 +80,8 @@ def recorded_frames(path: Path) -> int | None:
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:
-    """The rows of ``metrics.csv``, without a torn last line.
-
-    A row is appended whole, ending with a newline: a last line without one was cut by a
-    crash while it was written (its values may be cut too). It is dropped with a warning.
+    """The rows of ``metrics.csv``, but a last line without its newline (cut by a crash
+    while it was written, its values maybe too), dropped with a warning.
 
     Examples:
         >>> import tempfile
@@ -161,17 +136,11 @@ class CSVMetrics:
 
 
 class TensorBoardMetrics:
-    """Scalars to ``<log_dir>/<run_name>/``, the event file opened at the first point.
+    """Scalars to ``directory``, opened at the first point; on a resume from ``resume_step``
+    frames, the later points are hidden."""
 
-    Args:
-        log_dir: the run's ``tb`` directory.
-        run_name: the TensorBoard run (one per run directory, kept across resumes).
-        resume_step: when resuming, the checkpoint's frame count: points logged past it
-            by the earlier process are hidden (``purge_step``), as the CSV drops them.
-    """
-
-    def __init__(self, log_dir: Path, run_name: str, resume_step: int | None = None) -> None:
-        self.directory = log_dir / run_name
+    def __init__(self, directory: Path, resume_step: int | None = None) -> None:
+        self.directory = directory
         self.purge_step = None if resume_step is None else resume_step + 1
         self.writer: Any = None
 
@@ -192,18 +161,15 @@ class MetricLogger:
 
     Args:
         cfg: the logger config.
-        run_dir: the run's output directory.
-        run_name: a name for TensorBoard / wandb.
+        run_dir: the run's output directory; its name names the TensorBoard and wandb run.
         config: the resolved run config, recorded by wandb.
-        resume_step: when resuming, the checkpoint's frame count (wandb then continues
-            the run directory's wandb run: :func:`wandb_run_id`).
+        resume_step: when resuming, the checkpoint's frame count.
     """
 
     def __init__(
         self,
         cfg: LoggerConfig,
         run_dir: Path,
-        run_name: str,
         config: Mapping[str, Any] | None = None,
         resume_step: int | None = None,
     ) -> None:
@@ -212,7 +178,9 @@ class MetricLogger:
         self.csv = CSVMetrics(run_dir / METRICS_FILE, resume_step)
         self.tensorboard: TensorBoardMetrics | None = None
         if "tensorboard" in cfg.backends:
-            self.tensorboard = TensorBoardMetrics(run_dir / TENSORBOARD_DIR, run_name, resume_step)
+            self.tensorboard = TensorBoardMetrics(
+                run_dir / TENSORBOARD_DIR / run_dir.name, resume_step
+            )
         self.wandb: Any = None
         if "wandb" in cfg.backends:
             mode = wandb_mode(cfg.wandb_mode)
@@ -220,7 +188,7 @@ class MetricLogger:
                 from torchrl.record.loggers import WandbLogger
 
                 self.wandb = WandbLogger(
-                    exp_name=run_name,
+                    exp_name=run_dir.name,
                     offline=mode == "offline",
                     save_dir=str(run_dir),
                     id=wandb_run_id(run_dir, resume=resume_step is not None),
@@ -244,76 +212,3 @@ class MetricLogger:
             self.tensorboard.close()
         if self.wandb is not None:
             self.wandb.experiment.finish()
-
-
-#: Events of a game shown in progress lines: totals per episode, not per team.
-_PER_TEAM = re.compile(r"_\d+_per_episode$")
-
-
-class ProgressLines:
-    """A progress line every tenth (``parts``) of the budget, for logs without a bar.
-
-    Each line: frames trained of the budget, speeds since the previous line (frames per
-    second of the whole loop, and of collection alone: ``env_steps_per_s``), the latest
-    logged mean return of each group and the game's events per episode, elapsed time
-    and an estimate of the time left.
-
-    Args:
-        budget: ``algo.max_steps``.
-        frames: frames already trained (a resume starts from the checkpoint's).
-        parts: lines per budget.
-
-    Examples:
-        >>> lines = ProgressLines(budget=1000, frames=0)
-        >>> line = lines.update(100, collect_seconds=0.5, metrics={"racket/cumulative_reward": 0.1})
-        >>> line.split(" | ")[0], line.split(" | ")[2]
-        ('frames 100/1,000 (10%)', 'racket reward +0.100')
-        >>> lines.update(150, collect_seconds=0.5, metrics={}) is None
-        True
-    """
-
-    def __init__(self, budget: int, frames: int, parts: int = 10) -> None:
-        self.budget = budget
-        self.period = max(1, budget // parts)
-        self.start = time.perf_counter()
-        self.start_frames = frames
-        self.frames = frames
-        self.mark = (self.start, frames, 0.0)  # time, frames, collection seconds at the last line
-        self.collect_seconds = 0.0
-
-    def update(
-        self, frames: int, collect_seconds: float, metrics: Mapping[str, float]
-    ) -> str | None:
-        """Account one update; the line to write if it crossed a tenth of the budget."""
-        previous, self.frames = self.frames, frames
-        self.collect_seconds += collect_seconds
-        if previous // self.period == frames // self.period and frames < self.budget:
-            return None
-        now = time.perf_counter()
-        since, since_frames, since_collect = self.mark
-        self.mark = (now, frames, self.collect_seconds)
-        new_frames = frames - since_frames
-        speed = new_frames / max(now - since, 1e-9)
-        env_speed = new_frames / max(self.collect_seconds - since_collect, 1e-9)
-        overall = (frames - self.start_frames) / max(now - self.start, 1e-9)
-        left = max(self.budget - frames, 0) / max(overall, 1e-9)
-        parts = [
-            f"frames {frames:,}/{self.budget:,} ({100 * frames / self.budget:.0f}%)",
-            f"{speed:,.0f} frames/s (env {env_speed:,.0f} steps/s)",
-        ]
-        for name, value in metrics.items():
-            if name.endswith("/cumulative_reward"):
-                parts.append(f"{name.split('/')[0]} reward {value:+.3f}")
-        for name, value in metrics.items():
-            # The headline events only: per-team counts and how points ended (tennis'
-            # ended_<how>) stay in metrics.csv.
-            if name.startswith("events/") and not _PER_TEAM.search(name) and "/ended_" not in name:
-                event = name.removeprefix("events/").removesuffix("_per_episode")
-                parts.append(f"{event} {value:.2f}/episode")
-        parts.append(f"elapsed {_duration(now - self.start)}, left ~{_duration(left)}")
-        return " | ".join(parts)
-
-
-def _duration(seconds: float) -> str:
-    """``3725.2 -> '1:02:05'``."""
-    return str(datetime.timedelta(seconds=round(seconds)))

@@ -1,28 +1,13 @@
 """How the processes of a run share it: one strategy, chosen once (:func:`make_strategy`).
 
-The training loop of :class:`~rlhc.training.trainer.Trainer` is the same on every process; what
-differs between one process, data-parallel processes and a pipeline (see
-:mod:`rlhc.training.distributed` for what each computes) is where the batches come from and
-what is combined across processes. That is all here, behind the hooks the loop calls:
-
-| hook | :class:`SingleProcess` | :class:`DataParallel` | :class:`Pipeline` (learner, rank 0) |
-|---|---|---|---|
-| ``batches`` | a collector over its worlds | a collector over its share of the worlds | the batches rank 1 collects |
-| ``after_collection`` | — | average the observation normaliser | — (rank 1's came with the batch) |
-| ``reduce_sum`` | identity | all-reduce sum (advantage and weight statistics) | identity |
-| ``reduce_gradients`` | — | all-reduce sum of every gradient | — |
-| ``gather`` | ``[value]`` | every rank's value | ``[value]`` |
-| ``env_steps_per_s`` | its own | its own | rank 1's |
-| ``stop_requested`` | its own signal | any rank's signal | its own signal |
-| ``after_update`` | — | — | send the actors' weights to rank 1 |
-
-The pipeline's collecting process (rank 1) runs :meth:`Pipeline.serve` instead of the
-loop (``learns`` is false there).
+The loop of :class:`~rlhc.training.trainer.Trainer` is the same on every process; where its
+batches come from and what is combined across processes (:mod:`rlhc.training.distributed`)
+is a strategy's, behind the hooks the loop calls. A pipeline's collecting process runs
+:meth:`Pipeline.serve` instead of the loop.
 """
 
 from __future__ import annotations
 
-import contextlib
 import math
 import time
 from collections.abc import Generator, Mapping, Sequence
@@ -37,29 +22,14 @@ from torchrl.envs import TransformedEnv
 
 from rlhc.building.builders import Layout
 from rlhc.storage.checkpoint import seed_everything
-from rlhc.training.distributed import (
-    Processes,
-    WeightChannel,
-    all_reduce_gradients,
-    all_reduce_sum,
-    any_process,
-    average_floating_state,
-    broadcast_object,
-    broadcast_parameters,
-    gather,
-    receive_batch,
-    remote_batches,
-    send_batch,
-)
+from rlhc.training import distributed
+from rlhc.training.distributed import Processes, WeightChannel
 from rlhc.training.interrupt import StopSignals
 from rlhc.training.training_state import game_rng_state
 
 
 class SingleProcess:
     """One process collects and updates; the base of the other strategies.
-
-    Args:
-        processes: this process's place in the run (one process by default).
 
     Examples:
         >>> strategy = SingleProcess()
@@ -98,24 +68,20 @@ class SingleProcess:
 
     @property
     def restores_game_rng(self) -> bool:
-        """Whether a resume gives this process's game the stored generator.
-
-        The stored generator is the one rank 0 collected with; other data-parallel
-        processes keep their own seeds.
-        """
+        """Whether a resume gives this process's game the stored generator (rank 0's)."""
         return self.main
 
     # --- start ------------------------------------------------------------------------
     def share(self, value: Any) -> Any:
         """Rank 0's ``value`` on every process (e.g. the checkpoint to resume)."""
-        return value
+        return distributed.broadcast_object(value) if self.processes.active else value
 
     def synchronise(self, parameters: Sequence[torch.Tensor], seed: int) -> None:
         """Before training: every process takes rank 0's ``parameters``, then seeds its
-        own global generators with ``seed`` (its actions and minibatches are its own).
-
-        Nothing to do for one process.
-        """
+        own global generators with ``seed`` (its actions and minibatches are its own)."""
+        if self.processes.active:
+            distributed.broadcast_parameters(parameters)
+            seed_everything(seed)
 
     # --- the loop -----------------------------------------------------------------------
     def batches(
@@ -126,13 +92,8 @@ class SingleProcess:
         frames: int,
         device: torch.device,
     ) -> Generator[TensorDictBase, None, None]:
-        """The batches to train on until ``frames`` more world-decisions (of every process).
-
-        Each is this process's ``[worlds, decisions]`` share of an update, on ``device``
-        (the policy's, where the update runs; the env steps on its own device, the
-        collector moves the tensors between them); the collector is shut down when the
-        iterator ends or is closed.
-        """
+        """This process's ``[worlds, decisions]`` share of each update's batch, on
+        ``device`` (the policy's), until ``frames`` more world-decisions of every process."""
         local = layout.frames_per_batch // self.shards
         collector = Collector(
             env,
@@ -186,56 +147,42 @@ class SingleProcess:
         layout: Layout,
         actor_parameters: Sequence[torch.Tensor],
     ) -> None:
-        """What a process that does not learn runs instead of the loop (a pipeline's collector)."""
+        """What a process that does not learn runs instead of the loop."""
         raise RuntimeError(f"{type(self).__name__}: every process learns; none serves batches")
 
 
 class DataParallel(SingleProcess):
-    """Every process collects its share of the worlds and computes its share of every
-    minibatch; gradients and statistics are summed so that all hold the same update.
-
-    Args:
-        processes: this process's place in the run.
-        merge_normaliser: average the observation normaliser's statistics after every
-            collection (``algo.normalize_observations``).
-    """
+    """Each process collects its share of the worlds and computes its share of every
+    minibatch; gradients, statistics and (``merge_normaliser``) normalisers are combined."""
 
     def __init__(self, processes: Processes, *, merge_normaliser: bool) -> None:
         super().__init__(processes)
         self.merge_normaliser = merge_normaliser
 
-    def share(self, value: Any) -> Any:
-        return broadcast_object(value)
-
-    def synchronise(self, parameters: Sequence[torch.Tensor], seed: int) -> None:
-        broadcast_parameters(parameters)
-        seed_everything(seed)
-
     def after_collection(self, env: TransformedEnv) -> None:
         if self.merge_normaliser:
             # Each process saw 1/N of the worlds: average the statistics.
-            env.transform.load_state_dict(average_floating_state(env.transform.state_dict()))
+            env.transform.load_state_dict(
+                distributed.average_floating_state(env.transform.state_dict())
+            )
 
     def reduce_sum(self, tensor: torch.Tensor) -> torch.Tensor:
-        return all_reduce_sum(tensor)
+        return distributed.all_reduce_sum(tensor)
 
     def reduce_gradients(self, parameters: Sequence[torch.nn.Parameter]) -> None:
-        all_reduce_gradients(parameters)
+        distributed.all_reduce_gradients(parameters)
 
     def gather(self, value: Any) -> list[Any]:
-        return gather(value)
+        return distributed.gather(value)
 
     def stop_requested(self, received: bool) -> bool:
         # Another process's signal stops this one too.
-        return any_process(received)
+        return distributed.any_process(received)
 
 
 class Pipeline(SingleProcess):
-    """Rank 1 collects every world while rank 0 updates (see :mod:`rlhc.training.distributed`).
-
-    Rank 0 runs the loop on the batches rank 1 sends, with the normaliser statistics
-    and game generator that come with them; rank 1 runs :meth:`serve`.
-    """
+    """Rank 1 collects every world (:meth:`serve`) while rank 0 trains on its batches, with
+    the normaliser statistics and game generator that come with them."""
 
     def __init__(self, processes: Processes) -> None:
         super().__init__(processes)
@@ -251,13 +198,6 @@ class Pipeline(SingleProcess):
     def restores_game_rng(self) -> bool:
         return True
 
-    def share(self, value: Any) -> Any:
-        return broadcast_object(value)
-
-    def synchronise(self, parameters: Sequence[torch.Tensor], seed: int) -> None:
-        broadcast_parameters(parameters)
-        seed_everything(seed)
-
     def batches(
         self,
         env: TransformedEnv,
@@ -267,10 +207,10 @@ class Pipeline(SingleProcess):
         device: torch.device,
     ) -> Generator[TensorDictBase, None, None]:
         # Several processes train on CPU (rlhc.config.validation.check_device).
-        for batch, extras in remote_batches():
+        while True:
+            batch, self.extras = distributed.receive_batch()
             # The collector's normaliser statistics, for the update and the checkpoints.
-            self.extras = extras
-            env.transform.load_state_dict(extras["env_transform"])
+            env.transform.load_state_dict(self.extras["env_transform"])
             yield batch
 
     def env_steps_per_s(self, frames: int, seconds: float) -> float:
@@ -283,7 +223,7 @@ class Pipeline(SingleProcess):
             self.channel = WeightChannel(actor_parameters)
         self.channel.send(go_on)
         if not go_on:
-            receive_batch()  # collected with the last weights; nobody trains on it
+            distributed.receive_batch()  # collected with the last weights; nobody trains on it
             self.channel.wait()
 
     def game_rng_state(self, env: TransformedEnv) -> Mapping[str, Any] | None:
@@ -296,12 +236,9 @@ class Pipeline(SingleProcess):
         layout: Layout,
         actor_parameters: Sequence[torch.Tensor],
     ) -> None:
-        """The collecting process: collect, send, load the new weights, until told to stop.
-
-        Batch ``k + 1`` is collected while the learner trains on batch ``k``, with the
-        weights it had before that update. Stop signals are left to the learner, which
-        says when to stop.
-        """
+        """Collect, send, load the new weights, until the learner says stop (the stop
+        signals are the learner's). Batch ``k + 1`` is collected while the learner trains
+        on batch ``k``, with the weights from before that update."""
         channel = WeightChannel(actor_parameters)
         collector = Collector(
             env,
@@ -310,29 +247,30 @@ class Pipeline(SingleProcess):
             total_frames=-1,
             auto_register_policy_transforms=False,
         )
-        context = contextlib.ExitStack()
-        context.callback(collector.shutdown)
-        with context, StopSignals():
-            start = time.perf_counter()
-            for index, batch in enumerate(collector):
-                extras = {
-                    "env_steps_per_s": batch.numel() / (time.perf_counter() - start),
-                    "env_transform": env.transform.state_dict(),
-                    "game_rng": game_rng_state(env),
-                }
-                send_batch(batch, extras)
-                if index >= 1 and not channel.receive():
-                    break
+        with StopSignals():
+            try:
                 start = time.perf_counter()
+                for index, batch in enumerate(collector):
+                    extras = {
+                        "env_steps_per_s": batch.numel() / (time.perf_counter() - start),
+                        "env_transform": env.transform.state_dict(),
+                        "game_rng": game_rng_state(env),
+                    }
+                    distributed.send_batch(batch, extras)
+                    if index >= 1 and not channel.receive():
+                        break
+                    start = time.perf_counter()
+            finally:
+                collector.shutdown()
 
 
 def make_strategy(processes: Processes, *, normalize_observations: bool) -> SingleProcess:
     """The strategy of this process's place in the run.
 
     Args:
-        processes: from :func:`rlhc.training.distributed.setup` (or ``Processes()``: one process).
-        normalize_observations: whether the training env normalises observations
-            (data-parallel processes then average the statistics).
+        processes: from :func:`rlhc.training.distributed.setup` (``Processes()``: one process).
+        normalize_observations: whether data-parallel processes average the observation
+            normaliser's statistics.
 
     Examples:
         >>> from rlhc.training.distributed import Processes

@@ -1,18 +1,14 @@
-"""The bookkeeping behind each row of ``metrics.csv``, and the progress shown meanwhile.
-
-A :class:`SummaryWindow` collects, between two summaries, each update's statistics
-(losses, values, speeds: one number per update) and the episodes that ended in the
-collected batches (returns, lengths, the game's events); :meth:`SummaryWindow.metrics`
-turns them into one row's numbers, every process's included (data-parallel runs hand
-it their ``gather``). :class:`ProgressReport` is the bar and the periodic log line,
-:class:`ScriptedMatches` the periodic evaluation a row may hold.
-"""
+"""What goes into each row of ``metrics.csv`` (:class:`SummaryWindow`, the periodic
+measurements), and the progress shown meanwhile (:class:`ProgressReport`)."""
 
 from __future__ import annotations
 
 import contextlib
 import copy
+import datetime
 import logging
+import re
+import time
 from collections import defaultdict
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -27,20 +23,21 @@ from tqdm.contrib.logging import logging_redirect_tqdm
 from rlhc.config.train_schema import TrainConfig
 from rlhc.envs import make_env
 from rlhc.envs.keys import DONE, EPISODE_REWARD, INFO, NEXT, STEP_COUNT, TERMINATED
-from rlhc.storage.checkpoint import rng_states, set_rng_states
-from rlhc.training.loggers import ProgressLines
+from rlhc.storage.checkpoint import flatten, rng_states, set_rng_states
 
 #: Every process's value, in rank order (``[value]`` for one process).
 Gather = Callable[[Any], list[Any]]
+#: Events of a game shown in progress lines: totals per episode, not per team.
+_PER_TEAM = re.compile(r"_\d+_per_episode$")
 
 
 class SummaryWindow:
-    """Update statistics and ended episodes since the last summary.
+    """Each update's statistics and the episodes that ended since the last summary.
 
     Examples:
         >>> window = SummaryWindow()
         >>> window.add_update({"grad_norm": 1.0})
-        >>> window.add("grad_norm", 3.0)
+        >>> window.add_update({"grad_norm": 3.0})
         >>> window.metrics(lambda part: [part])
         {'grad_norm': 2.0, 'episodes': 0.0}
     """
@@ -50,13 +47,9 @@ class SummaryWindow:
         self.episodes: dict[str, list[torch.Tensor]] = defaultdict(list)
 
     def add_update(self, statistics: Mapping[str, float]) -> None:
-        """One update's statistics (e.g. :meth:`rlhc.training.trainer.Trainer.update`'s)."""
+        """One update's statistics (:meth:`~rlhc.training.trainer.Trainer.update`'s, speeds)."""
         for name, value in statistics.items():
             self.updates[name].append(value)
-
-    def add(self, name: str, value: float) -> None:
-        """One more value of one statistic (e.g. an iteration's speed)."""
-        self.updates[name].append(value)
 
     def add_episodes(self, batch: TensorDictBase, groups: Sequence[str]) -> None:
         """Returns and lengths of the episodes that ended in ``batch``; game events."""
@@ -78,12 +71,8 @@ class SummaryWindow:
             self.episodes[f"{group}/cumulative_reward"].append(returns.mean(dim=(-2, -1)))
 
     def metrics(self, gather: Gather) -> dict[str, float]:
-        """The window's numbers over every process: means, per-episode events, ``episodes``.
-
-        Args:
-            gather: every process's value in rank order (``[value]`` for one process);
-                each process's diagnostics and episodes are pooled, in rank order.
-        """
+        """The window's means, events per episode and ``episodes``, pooled over the
+        processes by ``gather`` (every process's value in rank order)."""
         updates: dict[str, list[float]] = defaultdict(list)
         episodes: dict[str, list[torch.Tensor]] = defaultdict(list)
         for part_updates, part_episodes in gather((dict(self.updates), dict(self.episodes))):
@@ -113,25 +102,36 @@ class SummaryWindow:
 
 
 class ProgressReport:
-    """The progress bar (if shown) and a log line every tenth of the budget.
+    """The progress bar (if ``bar``) and a line to ``log`` every tenth (``parts``) of the
+    ``budget``, from ``frames`` already trained; while open, log records go above the bar.
 
-    A context manager: while it is open, with the bar shown, log records go above the
-    bar; it closes the bar on exit.
+    A line: frames, speeds since the last line (of the loop, of collection alone), each
+    group's latest mean return, the game's events per episode, time spent and left.
 
-    Args:
-        budget: ``algo.max_steps``.
-        frames: frames already trained (a resume starts from the checkpoint's).
-        bar: show tqdm's bar.
-        log: where the progress lines go (``None``: nowhere, e.g. not rank 0).
+    Examples:
+        >>> report = ProgressReport(budget=1000, frames=0, bar=False, log=None)
+        >>> line = report.line(100, collect_seconds=0.5, metrics={"racket/cumulative_reward": 0.1})
+        >>> line.split(" | ")[0], line.split(" | ")[2]
+        ('frames 100/1,000 (10%)', 'racket reward +0.100')
+        >>> report.line(150, collect_seconds=0.5, metrics={}) is None
+        True
     """
 
-    def __init__(self, budget: int, frames: int, *, bar: bool, log: logging.Logger | None) -> None:
+    def __init__(
+        self, budget: int, frames: int, *, bar: bool, log: logging.Logger | None, parts: int = 10
+    ) -> None:
         self.bar = tqdm(
             total=budget, initial=frames, unit="frames", disable=not bar, dynamic_ncols=True
         )
-        self.lines = ProgressLines(budget, frames)
         self.log = log
         self._context = contextlib.ExitStack()
+        self.budget = budget
+        self.period = max(1, budget // parts)
+        self.start = time.perf_counter()
+        self.start_frames = frames
+        self.frames = frames
+        self.mark = (self.start, frames, 0.0)  # time, frames, collection seconds at the last line
+        self.collect_seconds = 0.0
 
     def __enter__(self) -> ProgressReport:
         if not self.bar.disable:
@@ -145,18 +145,42 @@ class ProgressReport:
     def advance(
         self, frames: int, advanced: int, collect_seconds: float, metrics: Mapping[str, float]
     ) -> None:
-        """After an iteration: ``advanced`` frames more, ``frames`` in all.
-
-        Args:
-            frames: frames trained so far.
-            advanced: frames this iteration trained.
-            collect_seconds: seconds this iteration's collection took (at its own speed).
-            metrics: the last logged metrics.
-        """
+        """After an iteration that trained ``advanced`` frames (``frames`` in all), its
+        collection ``collect_seconds`` long; ``metrics``: the last logged ones."""
         self.bar.update(advanced)
-        line = self.lines.update(frames, collect_seconds, metrics)
+        line = self.line(frames, collect_seconds, metrics)
         if self.log is not None and line is not None:
             self.log.info(line)
+
+    def line(self, frames: int, collect_seconds: float, metrics: Mapping[str, float]) -> str | None:
+        """Account an iteration; the line to write if it crossed a tenth of the budget."""
+        previous, self.frames = self.frames, frames
+        self.collect_seconds += collect_seconds
+        if previous // self.period == frames // self.period and frames < self.budget:
+            return None
+        now = time.perf_counter()
+        since, since_frames, since_collect = self.mark
+        self.mark = (now, frames, self.collect_seconds)
+        new_frames = frames - since_frames
+        speed = new_frames / max(now - since, 1e-9)
+        env_speed = new_frames / max(self.collect_seconds - since_collect, 1e-9)
+        overall = (frames - self.start_frames) / max(now - self.start, 1e-9)
+        left = max(self.budget - frames, 0) / max(overall, 1e-9)
+        parts = [
+            f"frames {frames:,}/{self.budget:,} ({100 * frames / self.budget:.0f}%)",
+            f"{speed:,.0f} frames/s (env {env_speed:,.0f} steps/s)",
+        ]
+        for name, value in metrics.items():
+            if name.endswith("/cumulative_reward"):
+                parts.append(f"{name.split('/')[0]} reward {value:+.3f}")
+        for name, value in metrics.items():
+            # The headline events only: per-team counts and how points ended (tennis'
+            # ended_<how>) stay in metrics.csv.
+            if name.startswith("events/") and not _PER_TEAM.search(name) and "/ended_" not in name:
+                event = name.removeprefix("events/").removesuffix("_per_episode")
+                parts.append(f"{event} {value:.2f}/episode")
+        parts.append(f"elapsed {_duration(now - self.start)}, left ~{_duration(left)}")
+        return " | ".join(parts)
 
     def summarised(self, metrics: Mapping[str, float]) -> None:
         """A new row of metrics: the bar shows its speed and mean returns."""
@@ -164,14 +188,8 @@ class ProgressReport:
 
 
 class ScriptedMatches:
-    """The periodic evaluation of a row: the live policy against the scripted team.
-
-    Plays ``cfg.eval_matches`` matches (half on each side) with mode actions, on worlds
-    of their own (seeded ``cfg.seed + 1``, built at the first call).
-
-    Args:
-        cfg: the run's config (its game, seed and ``eval_matches``).
-    """
+    """``eval_freq``: ``cfg.eval_matches`` matches of the live policy (mode actions, half on
+    each side) against the scripted team, on worlds of their own seeded ``cfg.seed + 1``."""
 
     def __init__(self, cfg: TrainConfig) -> None:
         self.cfg = cfg
@@ -196,10 +214,7 @@ class ScriptedMatches:
         copies = {g: copy.deepcopy(actor).cpu().eval() for g, actor in actors.items()}
         policy = RestoredPolicy(copies, *normaliser_statistics(transform, copies))
         result = evaluate_against(policy, "scripted", self.env, self.cfg.eval_matches)
-        return {
-            "eval/win_rate": float(result["win_rate"]),
-            "eval/draw_rate": float(result["draw_rate"]),
-        }
+        return {f"eval/{rate}": float(result[rate]) for rate in ("win_rate", "draw_rate")}
 
 
 #: Keys of a play measurement that echo its settings, not measure play.
@@ -207,12 +222,11 @@ PLAY_SETTINGS = ("worlds", "decisions", "seed")
 
 
 def play_metrics(state: Mapping[str, Any], cfg: TrainConfig) -> dict[str, float]:
-    """The periodic play measurement (``play_freq``): the numbers of
-    :func:`rlhc.evaluation.diagnostics.diagnose` on ``state`` (the live training state),
-    flattened under ``play/`` (``play/hits_per_point``, ``play/sigma_near/move``, ...).
+    """``play_freq``: :func:`rlhc.evaluation.diagnostics.diagnose` of the live training
+    ``state``, flattened under ``play/`` (``play/hits_per_point``, ...).
 
-    The measurement seeds the global generators (``cfg.seed + 2``); they are put back
-    afterwards, so that training continues as if nothing had been played.
+    It seeds the global generators (``cfg.seed + 2``) and puts them back afterwards, so
+    that training continues as if nothing had been played.
     """
     from rlhc.evaluation.diagnostics import diagnose
 
@@ -223,26 +237,16 @@ def play_metrics(state: Mapping[str, Any], cfg: TrainConfig) -> dict[str, float]
         )
     finally:
         set_rng_states(states)
-    return {f"play/{name}": value for name, value in numbers(result)}
+    return {
+        f"play/{name}": float(value)
+        for name, value in flatten(result, sep="/").items()
+        if isinstance(value, bool | int | float) and name.split("/")[-1] not in PLAY_SETTINGS
+    }
 
 
-def numbers(tree: Mapping[str, Any], prefix: str = "") -> list[tuple[str, float]]:
-    """The numeric leaves of a nested mapping, named by their ``/``-joined path.
-
-    The measurement's own settings (``worlds``, ``decisions``, ``seed``) are left out.
-
-    Examples:
-        >>> numbers({"hits": 2, "sigma": {"move": 0.5}, "seed": 0, "team": "scripted"})
-        [('hits', 2.0), ('sigma/move', 0.5)]
-    """
-    found = []
-    for key, value in tree.items():
-        name = f"{prefix}{key}"
-        if isinstance(value, Mapping):
-            found += numbers(value, f"{name}/")
-        elif isinstance(value, bool | int | float) and key not in PLAY_SETTINGS:
-            found.append((name, float(value)))
-    return found
+def _duration(seconds: float) -> str:
+    """``3725.2 -> '1:02:05'``."""
+    return str(datetime.timedelta(seconds=round(seconds)))
 
 
 def postfix(metrics: Mapping[str, float]) -> dict[str, str]:

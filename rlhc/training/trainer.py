@@ -1,17 +1,9 @@
 """The training loop: collector → hierarchical value estimator → PPO loss → Adam.
 
-Read :meth:`Trainer.train` top to bottom: collect ``buffer_size`` agent-experiences per
-group from every world, :meth:`Trainer.update` on them (estimate fused values and
-advantages per group, then ``epochs`` passes of minibatch PPO), log, checkpoint. Both
-teams of a game share each group's policy (symmetric self-play).
-
-Units are ML-Agents 0.5's, the trainer the paper ran (see
-:class:`~rlhc.config.train_schema.PPOConfig` and :class:`~rlhc.building.builders.Layout`):
-the budget, summary and checkpoint periods count world-decisions ("frames"), buffer and
-minibatch count agent-experiences per group.
-
-Under ``torchrun`` the same loop runs on every process; where its batches come from and
-what is combined across processes is the strategy's (:mod:`rlhc.training.strategies`).
+Read :meth:`Trainer.train` top to bottom: collect, :meth:`Trainer.update`, log,
+checkpoint. Both teams share each group's policy (symmetric self-play). Units are
+ML-Agents 0.5's (:class:`~rlhc.building.builders.Layout`): the budget and periods count
+world-decisions ("frames"), buffer and minibatch agent-experiences per group.
 """
 
 from __future__ import annotations
@@ -44,11 +36,7 @@ from rlhc.config.train_schema import TrainConfig, adapted_lr, schedules
 from rlhc.config.validation import validate
 from rlhc.envs.keys import MANAGER_SELECTED, MANAGER_VALUE, STATE_VALUE, WORKER_VALUE
 from rlhc.modules import make_actor
-from rlhc.objectives import (
-    WeightedLoss,
-    cut_trajectories,
-    learner_weighted_loss,
-)
+from rlhc.objectives import WeightedLoss, cut_trajectories, learner_weighted_loss
 from rlhc.storage.checkpoint import CHECKPOINT_DIR, save_checkpoint, seed_everything
 from rlhc.storage.final_team import save_team
 from rlhc.training.compilation import compiled
@@ -76,16 +64,10 @@ class Trainer:
         cfg: a validated training config.
         run_dir: where ``metrics.csv``, TensorBoard files and checkpoints go.
         env: the collection env; ``None`` builds the batched game of ``cfg.env``. Another
-            env (e.g. TorchRL's ``PettingZooWrapper`` route, for benchmarks) must follow
-            the same TensorDict contract, with episode returns and observation norm from
-            :func:`~rlhc.building.builders.with_training_transforms`.
-        processes: this process's place in a ``torchrun`` run
-            (:func:`rlhc.training.distributed.setup`); ``None``: one process.
-
-    Keyword Args:
-        resume_state: the checkpoint to continue, already loaded
-            (:func:`~rlhc.storage.checkpoint.load_checkpoint`); ``None`` loads ``cfg.resume``
-            if set. Checked with :func:`~rlhc.training.training_state.check_resumable` either way.
+            env needs the transforms of :func:`~rlhc.building.builders.with_training_transforms`.
+        processes: this process's place in a ``torchrun`` run; ``None``: one process.
+        resume_state: the checkpoint to continue, already loaded; ``None`` loads
+            ``cfg.resume`` if set.
 
     Examples:
         >>> trainer = Trainer(cfg, Path("outputs/demo"))  # doctest: +SKIP
@@ -152,30 +134,18 @@ class Trainer:
                 restore_game_rng=self.strategy.restores_game_rng,
             )
         self.strategy.synchronise(self.parameters, (seed + self.frames) % 2**32)
-        self.logger = (
-            MetricLogger(
-                cfg.logger,
-                run_dir,
-                run_name=run_dir.name,
-                config=config_container(cfg),
-                resume_step=self.frames if resume is not None else None,
-            )
-            if self.strategy.main
-            else None
-        )
+        self.logger: MetricLogger | None = None
+        if self.strategy.main:
+            resume_step = self.frames if resume is not None else None
+            self.logger = MetricLogger(cfg.logger, run_dir, config_container(cfg), resume_step)
 
     # --- the loop -------------------------------------------------------------------
     def train(self) -> dict[str, float]:
         """Train until ``algo.max_steps`` frames; returns the last logged metrics.
 
-        SIGINT and SIGTERM stop it cleanly (:mod:`rlhc.training.interrupt`): the update in
-        progress finishes (a collection in progress too), a checkpoint is written and
-        :class:`~rlhc.training.interrupt.TrainingInterrupted` is raised. A progress line goes to
-        the ``logging`` module every tenth of the budget (with the bar on a terminal,
-        above it).
-
         Raises:
-            TrainingInterrupted: on SIGINT or SIGTERM, after the checkpoint is written.
+            TrainingInterrupted: on SIGINT or SIGTERM, once the update in progress is
+                done and a checkpoint written (:mod:`rlhc.training.interrupt`).
         """
         cfg, strategy = self.cfg, self.strategy
         remaining = cfg.algo.max_steps - self.frames
@@ -184,10 +154,11 @@ class Trainer:
         if not strategy.learns:  # a pipeline's collecting process
             strategy.serve(self.env, self.collection_policy, self.layout, self._actor_parameters())
             return {}
+        bar = cfg.logger.progress if cfg.logger.progress is not None else sys.stderr.isatty()
         report = ProgressReport(
             cfg.algo.max_steps,
             self.frames,
-            bar=strategy.main and self._show_progress(),
+            bar=strategy.main and bar,
             log=log if strategy.main else None,
         )
         window = SummaryWindow()
@@ -225,8 +196,8 @@ class Trainer:
                     self.league.add_snapshot(self.actors)
                 self.wall_time = time.perf_counter() - start
                 env_rate = strategy.env_steps_per_s(frames, collect_time)
-                window.add("env_steps_per_s", env_rate)
-                window.add("train_frames_per_s", frames / (collect_time + update_time))
+                train_rate = frames / (collect_time + update_time)
+                window.add_update({"env_steps_per_s": env_rate, "train_frames_per_s": train_rate})
                 # Log, checkpoint.
                 if self._crossed(previous, cfg.logger.summary_freq) or self._finished():
                     last_metrics = self._summarise(window, summarised_at)
@@ -249,32 +220,24 @@ class Trainer:
         return last_metrics
 
     def collect_batch(self) -> TensorDictBase:
-        """One batch ``[worlds, decisions]`` collected as :meth:`train` collects them,
-        outside the loop (benchmarks and checks; the counters are not advanced)."""
+        """One batch ``[worlds, decisions]`` as :meth:`train` collects them, the counters
+        not advanced (for checks)."""
         batches = self.strategy.batches(
-            self.env,
-            self.collection_policy,
-            self.layout,
-            self.layout.frames_per_batch,
-            self.device,
+            self.env, self.collection_policy, self.layout, self.layout.frames_per_batch, self.device
         )
-        try:
-            return next(iter(batches))
-        finally:
-            batches.close()
+        with contextlib.closing(batches):
+            return next(batches)
 
     def update(self, batch: TensorDictBase) -> dict[str, float]:
         """One PPO update on a collected batch ``[worlds, decisions]``.
 
         At the schedules of the current frame count: cut the trajectories at the time
         horizon, estimate fused values and advantages per group, then ``algo.epochs``
-        passes of shuffled minibatches (as ML-Agents 0.5: whole minibatches only, the
-        remainder left out), each one optimiser step; with ``algo.target_kl``, the
-        learning rate is then adapted to the update's mean KL.
+        passes of shuffled minibatches (whole ones only, as ML-Agents 0.5); with
+        ``algo.target_kl``, then adapt the learning rate to the update's mean KL.
 
         Returns:
-            The update's statistics, each a mean over its minibatches: per group the
-            values (``<g>/state_value``, ...), losses and diagnostics; ``grad_norm``.
+            Means over the minibatches: ``<group>/<value, loss or diagnostic>``, ``grad_norm``.
         """
         self._set_schedules()
         algo, layout = self.cfg.algo, self.layout
@@ -304,8 +267,7 @@ class Trainer:
         }
 
     def step(self, minibatch: TensorDictBase) -> dict[str, torch.Tensor]:
-        """One optimiser step on a minibatch: :meth:`backward`, the gradient clipped to
-        ``algo.max_grad_norm``, Adam's step (eager, also under ``compile=true``); the
+        """:meth:`backward`, the gradient clipped, Adam's step (eager, also compiled); the
         loss's diagnostics and ``grad_norm`` (before clipping)."""
         diagnostics = self.backward(minibatch)
         grad_norm = torch.nn.utils.clip_grad_norm_(self.parameters, self.cfg.algo.max_grad_norm)
@@ -313,13 +275,10 @@ class Trainer:
         return {**diagnostics, "grad_norm": grad_norm.detach()}
 
     def backward(self, minibatch: TensorDictBase) -> dict[str, torch.Tensor]:
-        """Set every parameter's gradient to that of :meth:`minibatch_loss`; return its
-        diagnostics.
+        """Set every parameter's gradient to that of :meth:`minibatch_loss`; its diagnostics.
 
-        With ``compile=true`` the loss and its backward run compiled
-        (:func:`~rlhc.training.compilation.compiled`). Data-parallel, ``minibatch`` is this
-        process's share and the gradients are summed over the processes: every process
-        then holds the gradient of the whole minibatch, the one a single process computes.
+        Data-parallel, ``minibatch`` is this process's share and the gradients are summed
+        over the processes: each holds the gradient one process computes on the whole.
         """
         total, diagnostics = self._minibatch_loss(minibatch)
         self.optimizer.zero_grad(set_to_none=True)
@@ -328,12 +287,11 @@ class Trainer:
         return diagnostics
 
     def minibatch_loss(self, minibatch: TensorDictBase) -> WeightedLoss:
-        """The summed PPO loss of every group on a minibatch (advantages already in it).
+        """The summed PPO loss of every group on a minibatch (advantages already in it),
+        and its diagnostics ``<group>/<key>``.
 
         Every term is averaged under the learner weight
-        (:func:`~rlhc.objectives.learner_weighted_loss`): an experience that an opponent
-        chose (a league world) adds nothing. The diagnostics are named ``<group>/<key>``
-        (this process's share only, data-parallel; the summary pools the processes).
+        (:func:`~rlhc.objectives.learner_weighted_loss`): an opponent's experience adds nothing.
         """
         total = torch.zeros((), device=self.device)
         diagnostics: dict[str, torch.Tensor] = {}
@@ -351,9 +309,8 @@ class Trainer:
 
     # --- metrics --------------------------------------------------------------------
     def _summarise(self, window: SummaryWindow, summarised_at: int) -> dict[str, float]:
-        """One row of ``metrics.csv``: the window's numbers, the counters, and the matches
-        and play measurement whose period (``eval_freq``, ``play_freq``) was crossed since
-        the last row (at ``summarised_at`` frames)."""
+        """One row of ``metrics.csv``: the window, the counters, and the measurements whose
+        period (``eval_freq``, ``play_freq``) was crossed since ``summarised_at`` frames."""
         metrics = window.metrics(self.strategy.gather)
         window.clear()
         if self.league is not None:
@@ -369,25 +326,14 @@ class Trainer:
         metrics["wall_time"] = self.wall_time
         metrics["iteration"] = float(self.iteration)
         metrics = dict(sorted(metrics.items()))
-        if (
-            self.strategy.main
-            and self.cfg.eval_freq
-            and self._crossed(summarised_at, self.cfg.eval_freq)
-        ):
-            metrics.update(self.evaluate())
-        if (
-            self.strategy.main
-            and self.cfg.play_freq
-            and self._crossed(summarised_at, self.cfg.play_freq)
-        ):
-            metrics.update(play_metrics(self.state(), self.cfg))
+        if self.strategy.main:
+            if self.cfg.eval_freq and self._crossed(summarised_at, self.cfg.eval_freq):
+                metrics.update(self.scripted_matches(self.actors, self.env.transform))
+            if self.cfg.play_freq and self._crossed(summarised_at, self.cfg.play_freq):
+                metrics.update(play_metrics(self.state(), self.cfg))
         if self.logger is not None:
             self.logger.log(self.frames, metrics)
         return metrics
-
-    def evaluate(self) -> dict[str, float]:
-        """Win/draw rates of the current policy (mode actions) against the scripted team."""
-        return self.scripted_matches(self.actors, self.env.transform)
 
     # --- checkpoints ----------------------------------------------------------------
     def state(self) -> dict[str, Any]:
@@ -404,10 +350,8 @@ class Trainer:
         )
 
     def save(self) -> Path:
-        """Write a checkpoint (rank 0 only: the others hold the same state); its path.
-
-        At the end of the budget the final team (:mod:`rlhc.storage.final_team`) is written too.
-        """
+        """Write a checkpoint (rank 0 only: the others hold the same state), and at the end
+        of the budget the final team; the checkpoint's path."""
         path = self.run_dir / CHECKPOINT_DIR / f"step_{self.frames:09d}.pt"
         if self.strategy.main:
             state = self.state()
@@ -446,8 +390,3 @@ class Trainer:
 
     def _finished(self) -> bool:
         return self.frames >= self.cfg.algo.max_steps
-
-    def _show_progress(self) -> bool:
-        if self.cfg.logger.progress is not None:
-            return self.cfg.logger.progress
-        return sys.stderr.isatty()

@@ -1,6 +1,6 @@
-"""What a checkpoint of a training run holds, and putting it back (:mod:`rlhc.storage.checkpoint` writes and reads the files).
+"""What a checkpoint of a training run holds, and putting it back.
 
-A checkpoint is a plain dict (``torch.save``):
+:mod:`rlhc.storage.checkpoint` writes and reads the files; a checkpoint is a plain dict:
 
 | key | holds |
 |---|---|
@@ -13,8 +13,6 @@ A checkpoint is a plain dict (``torch.save``):
 | ``game_rng`` | the game's random generator (``None`` for an env that is no batched game) |
 | ``league`` | the league's pool, ratings and draws (``None`` without a league) |
 | ``rng`` | the global random states of python, numpy and torch |
-
-:func:`check_resumable` refuses a checkpoint whose weights belong to other settings.
 """
 
 from __future__ import annotations
@@ -52,14 +50,10 @@ def config_container(cfg: TrainConfig) -> dict[str, Any]:
 
 
 def check_resumable(cfg: TrainConfig, state: Mapping[str, Any]) -> None:
-    """Refuse to continue ``state`` with settings its weights do not belong to.
-
-    Args:
-        cfg: the config of the run that would continue.
-        state: a loaded checkpoint (:func:`~rlhc.storage.checkpoint.load_checkpoint`).
+    """Refuse to continue the checkpoint ``state`` with settings its weights do not belong to.
 
     Raises:
-        ResumeError: naming every differing setting (:func:`~rlhc.storage.checkpoint.config_differences`).
+        ResumeError: naming each (:func:`~rlhc.storage.checkpoint.config_differences`).
     """
     stored = state.get("config") or {"env": {"name": state["env"]}}
     differing = config_differences(stored, config_container(cfg))
@@ -73,15 +67,8 @@ def check_resumable(cfg: TrainConfig, state: Mapping[str, Any]) -> None:
 def checkpoint_to_resume(
     cfg: TrainConfig, given: Mapping[str, Any] | None, *, load: bool
 ) -> Mapping[str, Any] | None:
-    """The checkpoint a run continues, checked (:func:`check_resumable`).
-
-    Args:
-        cfg: the run's config.
-        given: an already loaded checkpoint, if any.
-        load: without ``given``, load ``cfg.resume`` (if set); e.g. on rank 0 only.
-
-    Returns:
-        ``given``, or the checkpoint loaded, or ``None`` (a fresh run).
+    """The checkpoint a run continues (``None``: a fresh run): ``given``, or else
+    ``cfg.resume`` loaded if ``load`` (e.g. on rank 0 only); checked by :func:`check_resumable`.
 
     Raises:
         ResumeError: the checkpoint's weights belong to other settings.
@@ -111,19 +98,8 @@ def training_state(
     game_rng: Mapping[str, Any] | None,
     league: League | None,
 ) -> dict[str, Any]:
-    """Everything a resume (or an evaluation) needs, as the table of the module says.
-
-    Args:
-        cfg: the run's config.
-        counters: frames, updates and wall time so far.
-        actors: each group's actor.
-        losses: each group's PPO loss (the actor and both critics).
-        optimizer: the optimiser of every loss's parameters.
-        env: the training env (its transforms' state is stored).
-        game_rng: the state of the collecting game's generator (:func:`game_rng_state`
-            of the env that collects, which is another process's in a pipeline).
-        league: the league, if any.
-    """
+    """Everything a resume (or an evaluation) needs, as the module's table says; ``game_rng``
+    is that of the game that collects (another process's, in a pipeline)."""
     return {
         "env": cfg.env.name,
         "config": config_container(cfg),
@@ -149,19 +125,11 @@ def restore_training_state(
     league: League | None,
     restore_game_rng: bool,
 ) -> Counters:
-    """Load a :func:`training_state` into a freshly built run; its counters.
+    """Load a :func:`training_state` into a freshly built run, the global random states
+    last; its counters.
 
-    The global random states are restored last.
-
-    Args:
-        state: a loaded checkpoint.
-        losses: each group's PPO loss (which holds the actor and both critics).
-        optimizer: the optimiser of every loss's parameters.
-        env: the training env: its transforms' state, and its game's generator when
-            ``restore_game_rng`` (and both the env and the checkpoint have one).
-        league: the league, if any (a checkpoint without one leaves it as built).
-        restore_game_rng: whether this process's game continues the stored generator
-            (the process that collected it; another data-parallel process keeps its own).
+    ``restore_game_rng``: whether this process's game continues the stored generator (the
+    process that collected it; other data-parallel processes keep their own).
     """
     for group, loss in losses.items():
         loss.load_state_dict(state["losses"][group])
