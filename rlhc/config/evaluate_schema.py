@@ -16,7 +16,7 @@ MODES = ("match", "elo")
 
 @dataclass
 class VideoConfig:
-    """Optional match videos (home on team 0) next to the results: one per series or Elo pairing.
+    """Optional match videos (home on team 0): one per series or Elo pairing.
 
     Attributes:
         enabled: record them.
@@ -40,26 +40,20 @@ class EvaluateConfig:
 
     Attributes:
         mode: ``match``: ``home`` against ``away``; ``elo``: every pair of ``players``.
-        env: the game (group ``env``, as in ``rlhc.run``; any registered game):
-            ``env.name``, ``env.num_envs``
-            (worlds played in parallel; ``None``: ``min(32, matches)``), ``env.max_cycles``
-            and, for tennis, ``env.extended_obs``. Options a checkpoint was trained with
-            (e.g. ``extended_obs``) override these, since its policy depends on them.
+        env: the game (group ``env``, as in ``rlhc.run``); ``env.num_envs`` worlds play at
+            once (``None``: up to 32). A checkpoint's observation options override these.
         home: the home player (``mode=match``).
         away: the away player (``mode=match``).
         players: the players of the round robin (``mode=elo``).
-        matches: matches per series (per pairing in ``mode=elo``); half with home on
-            each side when ``swap_sides``.
+        matches: matches per series (per pairing in ``mode=elo``).
         deterministic: the policies' mode action; ``false``: sampled actions.
         swap_sides: alternate the home player's team between matches.
-        points_to_win: first to this many points wins (``None``: the game's
-            ``points_to_win`` in the registry, tennis 5, soccer 1).
+        points_to_win: first to this many points wins (``None``: the game's, tennis 5, soccer 1).
         max_match_steps: a match still undecided after this many steps is a draw
             (``None``: ``max_cycles × points_to_win``).
         k_factor: Elo K-factor.
         initial_rating: every player's Elo before the first match.
-        video: record one match of the series (``mode=match``: ``match.<format>``;
-            ``mode=elo``: one per pairing, in ``videos/``).
+        video: record one match of the series (in ``mode=elo``, of each pairing).
         seed: seeds torch (random players, sampled actions) and the game.
         threads: torch intra-op threads.
     """

@@ -1,15 +1,14 @@
 """Hydra schemas of a training run, registered in Hydra's ConfigStore.
 
 Every yaml file in ``conf/`` names one of these schemas in its defaults list, so a
-misspelt key or a value of the wrong type fails before anything is built. The
-paper's Table 3 values live only in ``conf/table3/<env>.yaml`` (the schemas mark them
-``MISSING``); the defaults here are the settings the paper does not give.
+misspelt key or a value of the wrong type fails before anything is built. The paper's
+Table 3 values live only in ``conf/table3/<env>.yaml`` (``MISSING`` here); the defaults
+here are the settings the paper does not give. Each ``Attributes:`` line is a row of the
+settings table of ``docs/guide/configuration.md`` (:mod:`rlhc.config.table`).
 
-Every section of the config has its schema here, the league's and the shaping's
-included (their code: :mod:`rlhc.training.league`, :mod:`rlhc.building.shaping`), so
-that the schemas and their checks (:mod:`rlhc.config.validation`) import nothing of the
-code they configure; only the game options (:mod:`rlhc.envs.schemas`) and the network
-settings (:mod:`rlhc.modules.schemas`), which their own floors read, live there.
+Every section has its schema here, so that the schemas and their checks import nothing
+of the code they configure; only the game options (:mod:`rlhc.envs.schemas`) and the
+network settings (:mod:`rlhc.modules.schemas`), read by their own floors, live there.
 """
 
 from __future__ import annotations
@@ -30,7 +29,7 @@ CONFIG_DIR = Path(__file__).resolve().parents[2] / "conf"
 
 
 def measured_in(unit: str, default: Any = MISSING) -> Any:
-    """A schema field with its unit (shown in the README's generated table)."""
+    """A schema field with its unit (shown in the settings table)."""
     return field(default=default, metadata={"unit": unit})
 
 
@@ -42,15 +41,10 @@ class CriticConfig:
         fusion: ``local`` (worker critic only: PPO), ``manager`` (manager critic only),
             ``max`` (RLHC: element-wise ``max(V_w, V_m)``), ``mean`` or ``weighted``.
         weight: manager weight ``w`` of ``weighted``: ``w·V_m + (1 - w)·V_w``, in [0, 1].
-        manager_interval: the manager is consulted every ``k`` steps of an episode
-            (temporal scaling); on other steps the worker value is used.
-        manager_view: the second critic reads the manager's broader observation
-            (RLHC); ``false`` is the *twin* control (``critic=twin``): a second,
-            independently initialised critic on the worker's own observation, so
-            that ``max`` is as optimistic as RLHC's without the broader view.
-        manager_diagnostics: with ``fusion=local`` (PPO), still evaluate and train the
-            manager critic and log its value and loss; by default PPO leaves the unused
-            critic out (runs before this setting existed always trained it).
+        manager_interval: the manager is consulted every ``k`` steps (temporal scaling).
+        manager_view: the second critic reads the manager's observation (RLHC); ``false``:
+            the *twin* control (``critic=twin``), a second critic on the worker's own view.
+        manager_diagnostics: with ``fusion=local`` (PPO), still train and log the manager critic.
     """
 
     fusion: str = "max"
@@ -62,38 +56,24 @@ class CriticConfig:
 
 @dataclass
 class PPOConfig:
-    """PPO hyperparameters (paper Table 3, in the units of the trainer it ran on).
+    """PPO hyperparameters (paper Table 3), in the units of ML-Agents 0.5, its trainer.
 
-    Table 3's values live in ``conf/table3/<env>.yaml`` only (``MISSING`` here); the
-    settings the paper does not give keep their defaults here.
-
-    The paper's trainer is ML-Agents 0.5, whose units these are: a *world-decision*
-    (a "frame" in ``metrics.csv``) is one decision of every agent of one court or pitch;
-    an *agent-experience* is one agent's one decision. Which worlds are simulated at
-    once (``env.num_envs``) changes neither the budget nor the size of an update.
+    A *world-decision* (a "frame" in ``metrics.csv``) is one decision of every agent of
+    one court or pitch; an *agent-experience* is one agent's one decision.
 
     Attributes:
-        max_steps: the budget, in world-decisions (the paper's ``max_steps`` counts
-            steps of its whole scene: multiply by the worlds of that scene).
-        buffer_size: agent-experiences per group that one update trains on: an update
-            starts once every group holds at least this many (``ceil(buffer_size / n_g)``
-            world-decisions, ``n_g`` the agents of a group).
-        time_horizon: decisions of one agent after which its trajectory is cut and GAE
-            bootstraps from the value of the next observation.
-        batch_size: agent-experiences per group in one minibatch (a multiple of
-            ``n_g``); each epoch shuffles the buffer into ``buffer // batch`` minibatches
-            and, as ML-Agents 0.5, leaves out the remainder.
+        max_steps: the budget (the paper's ``max_steps`` × the worlds of its scene).
+        buffer_size: agent-experiences per group that one update trains on.
+        time_horizon: decisions after which a trajectory is cut and GAE bootstraps.
+        batch_size: agent-experiences per group in one minibatch (a multiple of its agents).
         epochs: passes over each buffer.
         lr: Adam learning rate.
         anneal_lr: decay the learning rate linearly to ``final_lr`` over ``max_steps``.
-        anneal_entropy_coef: decay ``entropy_coef`` linearly to ``final_entropy_coef``
-            over ``max_steps`` (ML-Agents 0.5).
-        anneal_clip_epsilon: decay ``clip_epsilon`` linearly to ``final_clip_epsilon``
-            over ``max_steps`` (ML-Agents 0.5).
-        final_lr: the learning rate's floor, reached at ``max_steps`` when annealed
-            (ML-Agents 0.5: 1e-10; later versions keep the rate constant).
-        final_entropy_coef: the entropy coefficient's floor (ML-Agents 0.5: 1e-5).
-        final_clip_epsilon: the clip range's floor (ML-Agents 0.5: 0.1).
+        anneal_entropy_coef: decay ``entropy_coef`` linearly to ``final_entropy_coef``.
+        anneal_clip_epsilon: decay ``clip_epsilon`` linearly to ``final_clip_epsilon``.
+        final_lr: the annealed learning rate's floor (ML-Agents 0.5: 1e-10).
+        final_entropy_coef: the annealed entropy coefficient's floor (ML-Agents 0.5: 1e-5).
+        final_clip_epsilon: the annealed clip range's floor (ML-Agents 0.5: 0.1).
         gamma: discount per decision.
         lmbda: GAE lambda.
         clip_epsilon: PPO ratio clip.
@@ -101,30 +81,12 @@ class PPOConfig:
         critic_coef: weight of each critic's value loss.
         max_grad_norm: global gradient-norm clip.
         normalize_advantage: standardise advantages per minibatch.
-        max_importance_ratio: the cap of the ratio ``pi / pi_old`` in the surrogate
-            (TorchRL's ``ClipPPOLoss(max_importance_ratio=...)``: a capped experience
-            keeps a rescaled gradient; ``null``: no cap). Above ``1 + clip_epsilon`` it
-            changes nothing but where a ratio explodes (``exp`` of a log-ratio of hundreds
-            of nats overflows and turns the weights into NaN). 100, as the PPO-EWMA
-            reference implementation.
-        normalize_observations: running mean/std normalisation of both observations
-            (the paper's ``normalize``).
-        target_kl: ``null`` (off), or the KL per update that the learning rate adapts to
-            (:func:`adapted_lr`, the "adaptive" schedule of rsl_rl and rl_games): after
-            each update the rate is divided by 1.5 if the update's mean ``kl_approx``
-            exceeded twice this, multiplied by 1.5 if it stayed under half, and kept
-            within ``[min_lr, lr]``; it starts at ``lr`` and is kept in the checkpoint
-            (Adam's state). Replaces the linear decay (``anneal_lr`` must be false).
+        max_importance_ratio: cap of the ratio ``pi / pi_old`` against NaN weights (``null``: none).
+        normalize_observations: running mean/std normalisation of observations (``normalize``).
+        target_kl: ``null``, or the KL per update the learning rate adapts to (:func:`adapted_lr`).
         min_lr: the adapted learning rate's floor (``target_kl`` only).
-        observation_decay: the observation normaliser's decay per observation (its
-            statistics are exponential averages with this weight per world-decision);
-            ``1.0``: cumulative averages over the whole run, as ML-Agents 0.5, whose
-            statistics settle where these keep following the play.
-        observation_clip: ``null`` (no clip), or the bound of the normalised
-            observations, ``[-clip, clip]`` (ML-Agents 0.5: 5). A feature that hardly
-            varies (a racket's height, 0.015 of scale in a run whose rackets rarely
-            jump) normalises to tens on the states where it does vary, and there a
-            small drift of its statistics moves the network's input by units.
+        observation_decay: the normaliser's decay per world-decision (1: cumulative, ML-Agents 0.5).
+        observation_clip: ``null``, or the bound of the normalised observations (ML-Agents 0.5: 5).
     """
 
     max_steps: int = measured_in("world-decisions", MISSING)
@@ -161,9 +123,7 @@ LR_ADAPTATION_FACTOR = 1.5
 def schedules(algo: PPOConfig, frames: int) -> tuple[float, float, float]:
     """Learning rate, entropy coefficient and clip range after ``frames`` world-decisions.
 
-    As ML-Agents 0.5: each decays linearly over the budget (where enabled) to its floor
-    (``algo.final_lr``, ``final_entropy_coef``, ``final_clip_epsilon``; by default 0,
-    1e-5 and 0.1).
+    As ML-Agents 0.5: each annealed one decays linearly over the budget to its floor.
 
     Examples:
         >>> from rlhc.config.train_schema import PPOConfig
@@ -211,9 +171,7 @@ def adapted_lr(lr: float, kl: float, algo: PPOConfig) -> float:
 
 @dataclass
 class ModelConfig(NetworkConfig):
-    """The ``model`` section: the network schema, :class:`~rlhc.modules.NetworkConfig`
-    (its fields and their checks), with the shape a preset must set.
-    """
+    """The ``model`` section: :class:`~rlhc.modules.NetworkConfig`, its shape set by a preset."""
 
     num_layers: int = MISSING
     hidden_size: int = MISSING
@@ -226,12 +184,10 @@ class LoggerConfig:
 
     Attributes:
         backends: any of ``csv`` (``metrics.csv``, always written), ``tensorboard``, ``wandb``.
-        summary_freq: log after every update that crosses a multiple of this many
-            world-decisions.
+        summary_freq: log after every update that crosses a multiple of this.
         progress: show a progress bar (``None``: only when stderr is a terminal).
         wandb_project: wandb project name.
-        wandb_mode: ``auto`` (online if an API key is configured, else offline),
-            ``online``, ``offline`` or ``disabled``.
+        wandb_mode: ``auto`` (online given an API key), ``online``, ``offline`` or ``disabled``.
     """
 
     backends: list[str] = field(default_factory=lambda: ["csv", "tensorboard"])
@@ -252,8 +208,7 @@ class LeagueConfig:
         random: share of worlds against the random team.
         pool_size: snapshots kept (the newest; the oldest is dropped).
         snapshot_interval: updates between two snapshots (the first after this many).
-        sampling: ``uniform`` over the pool, or ``elo``: a snapshot with probability
-            proportional to its expected score against the learner (harder ones more).
+        sampling: ``uniform`` over the pool, or ``elo``: harder snapshots more often.
     """
 
     self_play: float = 1.0
@@ -301,43 +256,23 @@ class TrainConfig:
         model: the networks (group ``model``).
         logger: metrics backends (group ``logger``).
         shaping: potential-based reward shaping (beyond the paper; off at scale 0).
-        league: who the learning team plays in each world (group ``league``; beyond the
-            paper: ``league=self_play``, pure self-play, is the paper's).
+        league: who the learning team plays (group ``league``; ``self_play`` is the paper's).
         seed: seeds torch, numpy and the game.
-        checkpoint_freq: save a checkpoint after every update that crosses a multiple of
-            this many world-decisions (and always at the end).
-        resume: ``null``: start fresh; a checkpoint file, or a run directory (its
-            latest checkpoint): continue it; ``auto``: continue from this run's own
-            directory (``hydra.run.dir``; a multirun job's ``hydra.sweep.dir`` /
-            ``hydra.sweep.subdir``) if it holds a checkpoint, else start fresh (as every
-            study of ``conf/study/`` does; a directory named ``auto``: ``./auto``).
-        device: where the networks, losses and update run: ``cpu``, ``cuda`` or
-            ``cuda:<index>`` (one process); the games run on CPU (README "On a GPU").
+        checkpoint_freq: save a checkpoint after every update that crosses a multiple of this.
+        resume: ``null``: start fresh; a checkpoint file or run directory: continue it;
+            ``auto``: continue from this run's own directory if it holds a checkpoint.
+        device: where the networks and the update run: ``cpu``, ``cuda`` or ``cuda:<index>``.
         threads: torch intra-op threads (``0``: leave torch's default).
-        compile: run each minibatch's loss and its backward under ``torch.compile``
-            (:mod:`rlhc.training.compilation`; the optimiser step stays Adam's fused
-            kernel). Faster on both games (README "A compiled update"), the first update
-            slower by the compilation; off by default because compiled float arithmetic is
-            not the eager one to the bit, so a seeded run reproduces only eagerly. Where
-            torch cannot compile, a warning and the eager update. One process or a
-            pipeline (not ``parallel=data`` on several processes).
-        eval_freq: every this many world-decisions, play ``eval_matches`` matches against the
-            scripted team and log the win rate (``0``: never).
+        compile: run each minibatch's loss and backward under ``torch.compile``: faster,
+            but a seeded run reproduces only eagerly (``docs/guide/performance.md``).
+        eval_freq: every this many, log the win rate against the scripted team (``0``: never).
         eval_matches: matches per periodic evaluation (half on each side).
-        play_freq: every this many world-decisions, measure how the live policy plays
-            against itself (:mod:`rlhc.evaluation.diagnostics`: tennis: hits over the
-            net per point sampled and with mode actions, the policy's scale near the
-            ball and elsewhere, saturated actions, moves toward the ball; soccer: goals,
-            shots, touches) on ``play_worlds`` fresh worlds for ``play_decisions``
-            decisions, and log it under ``play/`` (``0``: never). Training is untouched
-            (its random state is restored).
+        play_freq: every this many, log under ``play/`` how the policy plays itself (``0``: never).
         play_worlds: worlds of each periodic play measurement.
         play_decisions: decisions per world of each periodic play measurement.
-        parallel: how the processes of ``torchrun --nproc_per_node=N`` (N > 1) share a
-            run (:mod:`rlhc.training.distributed`): ``data`` (each steps its share of the worlds,
-            gradients all-reduced every minibatch: the same update as one process) or
-            ``pipeline`` (rank 0 updates while the others collect the next batch with
-            the policy one update older). Ignored by a single process.
+        parallel: how the processes of ``torchrun`` share a run
+            (:mod:`rlhc.training.distributed`): ``data`` (gradients all-reduced: the same
+            update as one process) or ``pipeline`` (rank 0 updates while rank 1 collects).
     """
 
     env: Any = MISSING
@@ -362,11 +297,7 @@ class TrainConfig:
 
 
 def register_configs() -> None:
-    """Register the schemas so that yaml files can name them in their defaults lists.
-
-    Each registered game's schema is ``<game>_schema`` in the ``env`` group
-    (``conf/env/<game>.yaml`` names it), from :mod:`rlhc.envs.registry`.
-    """
+    """Register the schemas (each game's as ``env/<game>_schema``) for the yaml files."""
     from rlhc.envs.registry import game_spec, games
 
     cs = ConfigStore.instance()
@@ -381,9 +312,8 @@ def register_configs() -> None:
 def compose_config(*overrides: str) -> TrainConfig:
     """The training config ``python -m rlhc.run <overrides>`` composes, checked by the schemas.
 
-    For scripts, notebooks and examples. Hydra's own node is left out, and so are the
-    entry point's checks (:func:`rlhc.config.validation.validate`) and ``resume=auto``'s
-    resolution.
+    For scripts, notebooks and examples; without Hydra's node, the entry point's checks
+    (:func:`rlhc.config.validation.validate`) and ``resume=auto``'s resolution.
 
     Raises:
         hydra.errors.HydraException, omegaconf.errors.OmegaConfBaseException: an

@@ -1,12 +1,9 @@
-"""Every check of a training config, in one place, with one error type.
+"""Every check of a config that the schemas' types cannot make, with one error type.
 
-:func:`validate` (a training config) and :func:`validate_evaluate` (an evaluation
-config) run before anything is built (``rlhc.run``'s preflight, the trainer):
-it checks each setting the schemas' types cannot (ranges, choices, the league's shares,
-the logger, how the processes of a ``torchrun`` run share it) and raises
-:class:`~rlhc.errors.ConfigError` naming the key, its value and what is allowed. What
-depends on the built game (the layout of an update: :class:`rlhc.building.builders.Layout`; a
-shared trunk on continuous actions) is checked where it is known, with the same error.
+:func:`validate` (training) and :func:`validate_evaluate` (evaluation) run before
+anything is built and raise :class:`~rlhc.errors.ConfigError` naming the key, its value
+and what is allowed. What depends on the built game (the layout of an update,
+:class:`rlhc.building.builders.Layout`) is checked where it is known, with the same error.
 """
 
 from __future__ import annotations
@@ -21,7 +18,7 @@ from rlhc.config.train_schema import LeagueConfig, LoggerConfig, TrainConfig
 from rlhc.envs import games
 from rlhc.envs.registry import shapable_games
 from rlhc.envs.tennis.rules import FAULT_PENALTIES
-from rlhc.errors import ConfigError
+from rlhc.errors import ConfigError, allowed
 from rlhc.objectives import FUSIONS
 
 __all__ = ["ConfigError", "validate", "validate_evaluate"]
@@ -38,21 +35,17 @@ SAMPLING = ("uniform", "elo")
 def validate(cfg: TrainConfig, processes: int = 1) -> None:
     """Check every setting of ``cfg`` for ``processes`` processes, before anything is built.
 
-    The network's own fields (``model.num_layers``, ``hidden_size``, ``activation``,
-    ``initial_action_scale``) are checked by their schema,
-    :class:`~rlhc.modules.NetworkConfig`, when the config is created.
+    The ``model`` fields are checked by :class:`~rlhc.modules.NetworkConfig` itself.
 
     Raises:
         ConfigError: naming the first bad key, its value and what is allowed.
     """
     if cfg.critic.fusion not in FUSIONS:
-        raise ConfigError(f"critic.fusion={cfg.critic.fusion!r}; allowed: {', '.join(FUSIONS)}")
+        raise allowed("critic.fusion", cfg.critic.fusion, ", ".join(FUSIONS))
     if not 0.0 <= cfg.critic.weight <= 1.0:
-        raise ConfigError(f"critic.weight={cfg.critic.weight}; allowed: a number in [0, 1]")
+        raise allowed("critic.weight", cfg.critic.weight, "a number in [0, 1]")
     if cfg.critic.manager_interval < 1:
-        raise ConfigError(
-            f"critic.manager_interval={cfg.critic.manager_interval}; allowed: an integer >= 1"
-        )
+        raise allowed("critic.manager_interval", cfg.critic.manager_interval, "an integer >= 1")
     positive = {
         "algo.max_steps": cfg.algo.max_steps,
         "algo.buffer_size": cfg.algo.buffer_size,
@@ -64,28 +57,26 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
     }
     for name, value in positive.items():
         if value < 1:
-            raise ConfigError(f"{name}={value}; allowed: an integer >= 1")
+            raise allowed(name, value, "an integer >= 1")
     non_negative = {
         "eval_freq": (cfg.eval_freq, "0 (off) or a number of world-decisions"),
         "play_freq": (cfg.play_freq, "0 (off) or a number of world-decisions"),
         "threads": (cfg.threads, "0 (torch's default) or a thread count"),
     }
-    for name, (value, allowed) in non_negative.items():
+    for name, (value, what) in non_negative.items():
         if value < 0:
-            raise ConfigError(f"{name}={value}; allowed: {allowed}")
+            raise allowed(name, value, what)
     if cfg.eval_freq and cfg.eval_matches < 2:
-        raise ConfigError(
-            f"eval_matches={cfg.eval_matches}; allowed: an integer >= 2 (half on each side)"
-        )
+        raise allowed("eval_matches", cfg.eval_matches, "an integer >= 2 (half on each side)")
     if cfg.play_freq:
         for name, value in (
             ("play_worlds", cfg.play_worlds),
             ("play_decisions", cfg.play_decisions),
         ):
             if value < 1:
-                raise ConfigError(f"{name}={value}; allowed: an integer >= 1")
+                raise allowed(name, value, "an integer >= 1")
     if cfg.env.num_envs is not None and cfg.env.num_envs < 1:
-        raise ConfigError(f"env.num_envs={cfg.env.num_envs}; allowed: null or an integer >= 1")
+        raise allowed("env.num_envs", cfg.env.num_envs, "null or an integer >= 1")
     if not 0.0 < cfg.algo.gamma <= 1.0 or not 0.0 <= cfg.algo.lmbda <= 1.0:
         raise ConfigError(
             f"algo.gamma={cfg.algo.gamma}, algo.lmbda={cfg.algo.lmbda}; "
@@ -107,40 +98,33 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
         above = number >= low if closed else number > low
         if not (math.isfinite(number) and above and number < high):
             bracket = "[" if closed else "("
-            raise ConfigError(
-                f"{name}={number}; allowed: a finite number in {bracket}{low}, {high})"
-            )
+            raise allowed(name, number, f"a finite number in {bracket}{low}, {high})")
     target_kl = cfg.algo.target_kl
     if target_kl is not None:
         if not (math.isfinite(target_kl) and target_kl > 0):
-            raise ConfigError(
-                f"algo.target_kl={target_kl}; allowed: null (off) or a finite number > 0"
-            )
+            raise allowed("algo.target_kl", target_kl, "null (off) or a finite number > 0")
         if cfg.algo.anneal_lr:
             raise ConfigError(
                 f"algo.target_kl={target_kl} with algo.anneal_lr=true; allowed: one "
                 "learning-rate schedule (set algo.anneal_lr=false to adapt the rate to the KL)"
             )
         if not (math.isfinite(cfg.algo.min_lr) and 0.0 < cfg.algo.min_lr <= cfg.algo.lr):
-            raise ConfigError(
-                f"algo.min_lr={cfg.algo.min_lr}; allowed: a number in (0, algo.lr = {cfg.algo.lr}]"
+            raise allowed(
+                "algo.min_lr", cfg.algo.min_lr, f"a number in (0, algo.lr = {cfg.algo.lr}]"
             )
     decay = cfg.algo.observation_decay
     if not (math.isfinite(decay) and 0.0 < decay <= 1.0):
-        raise ConfigError(
-            f"algo.observation_decay={decay}; allowed: a number in (0, 1] (1: cumulative)"
-        )
+        raise allowed("algo.observation_decay", decay, "a number in (0, 1] (1: cumulative)")
     clip = cfg.algo.observation_clip
     if clip is not None and not (math.isfinite(clip) and clip > 0):
-        raise ConfigError(
-            f"algo.observation_clip={clip}; allowed: null (no clip) or a finite number > 0"
-        )
+        raise allowed("algo.observation_clip", clip, "null (no clip) or a finite number > 0")
     cap = cfg.algo.max_importance_ratio
     if cap is not None and not (math.isfinite(cap) and cap > 1.0 + cfg.algo.clip_epsilon):
-        raise ConfigError(
-            f"algo.max_importance_ratio={cap}; allowed: null (no cap) or a finite number "
-            f"above 1 + algo.clip_epsilon = {1.0 + cfg.algo.clip_epsilon} (a lower cap "
-            "would bind inside the clip range)"
+        raise allowed(
+            "algo.max_importance_ratio",
+            cap,
+            f"null (no cap) or a finite number above 1 + algo.clip_epsilon = "
+            f"{1.0 + cfg.algo.clip_epsilon} (a lower cap would bind inside the clip range)",
         )
     if cfg.shaping.scale > 0 and cfg.env.name not in shapable_games():
         raise ConfigError(
@@ -161,16 +145,12 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
         )
     interval = cfg.env.decision_interval
     if interval is not None and interval < 1:
-        raise ConfigError(
-            f"env.decision_interval={interval}; allowed: null (the game's default) or an "
-            "integer >= 1 (physics frames per decision)"
-        )
+        what = "null (the game's default) or an integer >= 1 (physics frames per decision)"
+        raise allowed("env.decision_interval", interval, what)
     fault_penalty = getattr(cfg.env, "fault_penalty", None)
     if fault_penalty is not None and fault_penalty not in FAULT_PENALTIES:
-        raise ConfigError(
-            f"env.fault_penalty={fault_penalty!r}; allowed: null or one of "
-            f"{', '.join(FAULT_PENALTIES)}"
-        )
+        what = f"null or one of {', '.join(FAULT_PENALTIES)}"
+        raise allowed("env.fault_penalty", fault_penalty, what)
 
 
 def check_logger(cfg: LoggerConfig) -> None:
@@ -179,37 +159,27 @@ def check_logger(cfg: LoggerConfig) -> None:
     if unknown:
         raise ConfigError(f"logger.backends has {unknown}; allowed: {', '.join(BACKENDS)}")
     if cfg.wandb_mode not in WANDB_MODES:
-        raise ConfigError(
-            f"logger.wandb_mode={cfg.wandb_mode!r}; allowed: {', '.join(WANDB_MODES)}"
-        )
+        raise allowed("logger.wandb_mode", cfg.wandb_mode, ", ".join(WANDB_MODES))
 
 
 def league_problems(cfg: LeagueConfig) -> list[str]:
     """Problems with ``cfg``, each naming the key, the value and what is allowed."""
     problems = []
-    names = {
-        "self": "self_play",
-        "snapshot": "snapshot",
-        "scripted": "scripted",
-        "random": "random",
-    }
     for kind, share in cfg.shares.items():
         if not (math.isfinite(share) and 0.0 <= share <= 1.0):
-            problems.append(f"league.{names[kind]}={share}; allowed: a share in [0, 1]")
+            key = "self_play" if kind == "self" else kind
+            problems.append(str(allowed(f"league.{key}", share, "a share in [0, 1]")))
     total = sum(cfg.shares.values())
     if not math.isclose(total, 1.0, abs_tol=1e-6):
         problems.append(
             f"league shares sum to {total:g} (self_play={cfg.self_play}, snapshot="
             f"{cfg.snapshot}, scripted={cfg.scripted}, random={cfg.random}); allowed: a sum of 1"
         )
-    if cfg.pool_size < 1:
-        problems.append(f"league.pool_size={cfg.pool_size}; allowed: an integer >= 1")
-    if cfg.snapshot_interval < 1:
-        problems.append(
-            f"league.snapshot_interval={cfg.snapshot_interval}; allowed: an integer >= 1"
-        )
+    for name in ("pool_size", "snapshot_interval"):
+        if getattr(cfg, name) < 1:
+            problems.append(str(allowed(f"league.{name}", getattr(cfg, name), "an integer >= 1")))
     if cfg.sampling not in SAMPLING:
-        problems.append(f"league.sampling={cfg.sampling!r}; allowed: {', '.join(SAMPLING)}")
+        problems.append(str(allowed("league.sampling", cfg.sampling, ", ".join(SAMPLING))))
     return problems
 
 
@@ -221,8 +191,8 @@ def check_device(device: str, processes: int = 1) -> None:
     """Refuse a ``device`` that this machine cannot train on.
 
     Raises:
-        ConfigError: not a torch device of :data:`DEVICE_TYPES`, a CUDA device that
-            torch does not see, or a CUDA device with several processes.
+        ConfigError: not a CPU or CUDA device, one torch does not see, or CUDA with several
+            processes.
 
     Examples:
         >>> check_device("cpu")
@@ -231,13 +201,12 @@ def check_device(device: str, processes: int = 1) -> None:
         ...
         rlhc.errors.ConfigError: device='gpu'; allowed: cpu, cuda or cuda:<index>
     """
-    allowed = "allowed: cpu, cuda or cuda:<index>"
     try:
         parsed = torch.device(device)
     except (RuntimeError, TypeError):
-        raise ConfigError(f"device={device!r}; {allowed}") from None
+        raise allowed("device", device, "cpu, cuda or cuda:<index>") from None
     if parsed.type not in DEVICE_TYPES:
-        raise ConfigError(f"device={device!r}; {allowed}")
+        raise allowed("device", device, "cpu, cuda or cuda:<index>")
     if parsed.type != "cuda":
         return
     count = torch.cuda.device_count() if torch.cuda.is_available() else 0
@@ -269,11 +238,10 @@ def check_parallel(mode: str, size: int, device: str, league_active: bool) -> No
 
     Raises:
         ConfigError: an unknown ``parallel``, a pipeline of other than 2 processes or
-            with a league, or no collective backend for ``device`` in
-            this torch build.
+            with a league, or no collective backend for ``device`` in this torch build.
     """
     if mode not in PARALLEL_MODES:
-        raise ConfigError(f"parallel={mode!r}; allowed: {', '.join(PARALLEL_MODES)}")
+        raise allowed("parallel", mode, ", ".join(PARALLEL_MODES))
     if size <= 1:
         return
     if mode == "pipeline" and size != 2:
@@ -303,9 +271,9 @@ def validate_evaluate(cfg: EvaluateConfig) -> None:
         ConfigError: naming the bad key, its value and what is allowed.
     """
     if cfg.mode not in MODES:
-        raise ConfigError(f"mode={cfg.mode!r}; allowed: {', '.join(MODES)}")
+        raise allowed("mode", cfg.mode, ", ".join(MODES))
     if cfg.env.name not in games():
-        raise ConfigError(f"env={cfg.env.name!r}; allowed: {', '.join(games())}")
+        raise allowed("env", cfg.env.name, ", ".join(games()))
     if cfg.matches < 1 or (cfg.env.num_envs is not None and cfg.env.num_envs < 1):
         raise ConfigError(
             f"matches={cfg.matches}, env.num_envs={cfg.env.num_envs}; both must be >= 1"
@@ -316,4 +284,4 @@ def validate_evaluate(cfg: EvaluateConfig) -> None:
             "'players=[scripted,random,outputs/soccer/hierarchical/<time>]'"
         )
     if cfg.video.format not in ("gif", "mp4"):
-        raise ConfigError(f"video.format={cfg.video.format!r}; allowed: gif, mp4")
+        raise allowed("video.format", cfg.video.format, "gif, mp4")
