@@ -1,6 +1,6 @@
 """rlhc: Reinforcement Learning from Hierarchical Critics on TorchRL.
 
-Floors, each importing only itself and the ones before it (README "Layout";
+Floors, each importing only itself and the ones before it (``docs/guide/architecture.md``;
 ``tests/test_layering.py`` checks it): ``rlhc.errors`` → ``rlhc.envs`` (games) →
 ``rlhc.modules`` (networks) → ``rlhc.objectives`` (hierarchical value estimation +
 PPO) → ``rlhc.config`` (settings) → ``rlhc.storage`` (checkpoint files) →

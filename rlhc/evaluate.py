@@ -1,17 +1,9 @@
 """Entry point: head-to-head matches and Elo ratings between checkpoints and built-ins.
 
 Wiring only: compose and check the config and the players, seed, hand over to
-:mod:`rlhc.evaluation.commands`. Outputs go to
-``outputs/evaluate/<env>/<mode>/<time>/`` (``results.json``, ``matches.csv``; in
-``mode=elo``: ``elo.json``, ``elo.csv``, ``pairings.csv``); with ``video.enabled=true`` a
-match video (``match.gif``; in ``mode=elo`` one per pairing under ``videos/``).
-
-A user error (a bad value, a player that is neither a built-in team nor a checkpoint
-of this game, a Hydra override error) prints ``rlhc.evaluate: error: <one line>`` and
-exits with code 2, before any match is played and, for a single evaluation, before
-Hydra creates its directory (the ``EvaluatePreflight`` callback of
-``conf/evaluate.yaml``); ``HYDRA_FULL_ERROR=1`` shows the traceback instead
-(:mod:`rlhc.cli.report`).
+:mod:`rlhc.evaluation.commands` (which lists the files written into
+``outputs/evaluate/<env>/<mode>/<time>/``). A user error prints
+``rlhc.evaluate: error: <one line>`` and exits 2 before any match is played.
 
 Examples:
     python -m rlhc.evaluate env=soccer home=outputs/soccer/hierarchical/<time> away=scripted matches=100

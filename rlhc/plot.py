@@ -1,16 +1,10 @@
 """Entry point: ``python -m rlhc.plot <run dirs…> [--out curves.png] [--smoothing 0.8]``.
 
-Draws the paper's four curves (cumulative reward, episode length, entropy, value
-estimate; per group for group metrics) of every run under the given paths, seeds of
-one configuration averaged with a shaded 95% t interval, and prints each
-configuration's last-10% value of every curve (mean ± t interval over its runs).
-
-Arguments that hold no run (a multirun's ``multirun.yaml``, a directory without
-``metrics.csv``) are skipped with one warning line, so a shell glob works as written.
-A user error (a path that does not exist, no run directory left, an unreadable
-``metrics.csv``, none of the ``--metrics`` logged, a bad option) prints
-``rlhc.plot: error: <one line>`` and exits with code 2, writing nothing;
-``HYDRA_FULL_ERROR=1`` shows the traceback instead (:mod:`rlhc.cli.report`).
+Draws the paper's four curves of every run under the given paths, seeds of one
+configuration averaged with a shaded 95% t interval, and prints each configuration's
+last-10% value of every curve. Paths that hold no run (a multirun's ``multirun.yaml``)
+are skipped with a warning, so a shell glob works; a user error prints
+``rlhc.plot: error: <one line>`` and exits 2, writing nothing (:mod:`rlhc.cli.report`).
 
 Examples:
     python -m rlhc.plot multirun/2025-01-01_00-00-00 --out docs/images/tennis.png
@@ -71,11 +65,7 @@ def fraction(low_open: bool, text: str) -> float:
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    """The command line of ``python -m rlhc.plot``.
-
-    Raises:
-        UsageError: an argument argparse refuses (one line).
-    """
+    """The command line of ``python -m rlhc.plot`` (:class:`UsageError` if argparse refuses it)."""
     parser = ArgumentParser(prog=f"python -m {PROGRAM}", description=__doc__.split("\n")[0])
     parser.add_argument(
         "runs", nargs="+", help="run directories, multirun directories or metrics.csv files"
@@ -113,13 +103,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    """Plot and print; paths holding no run (e.g. ``multirun.yaml``) are skipped with a warning.
-
-    Raises:
-        UsageError: a path does not exist, no run directory remains, a ``metrics.csv``
-            cannot be read, no run logged any of ``--metrics``, or a bad argument;
-            nothing is written.
-    """
+    """Plot and print; :class:`UsageError` for a missing path, no run, an unreadable
+    ``metrics.csv``, none of ``--metrics`` logged, or a bad argument."""
     args = parse_args(argv)
     try:
         run_dirs, not_runs = split_run_paths(args.runs)

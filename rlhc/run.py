@@ -2,41 +2,19 @@
 
 Wiring only: compose and check the config, hand it to the trainer, report how the run
 ended. Outputs go to ``outputs/<env>/<critic>/<time>/`` (multirun:
-``multirun/<time>/<num>_<key>-<value>_…/``; a study of ``conf/study/``: its sweep
-directory's ``<critic>/seed_<k>/``); ``resume=<run dir or checkpoint>`` continues in the
-resumed run's own directory (the ``rlhc.run_dir`` resolver of ``conf/train.yaml``)
-unless ``hydra.run.dir`` is given. ``resume=auto`` continues from the run directory's own
-checkpoint if it holds one and starts fresh otherwise
-(:func:`~rlhc.cli.start.resolve_resume`): a study run again continues its unfinished
-runs and skips its finished ones.
+``multirun/<time>/<num>_<key>-<value>_…/``); ``resume=<run dir or checkpoint>`` continues
+in the resumed run's directory, ``resume=auto`` from this run directory's own checkpoint
+if it holds one (``docs/guide/training.md``).
 
-How it ends, and its exit code:
-
-| case | output | code |
+| how it ends | output | exit code |
 |---|---|---|
 | trained to ``algo.max_steps`` | ``results in <run dir>`` | 0 |
-| ``resume=`` of a run that reached ``algo.max_steps`` (a multirun job: that job) | that it is finished; nothing is written | 0 |
-| ``resume=auto`` in a directory with no checkpoint whose ``metrics.csv`` records ``algo.max_steps`` frames (a committed run, its checkpoints not kept) | the same | 0 |
-| a user error: a bad value (:class:`~rlhc.errors.ConfigError`), a resume path that holds no checkpoint or whose settings differ, ``resume=auto`` in a directory that records fewer frames than ``algo.max_steps`` but holds no checkpoint (:class:`~rlhc.storage.checkpoint.ResumeError`), a run directory another process trains in (:class:`~rlhc.storage.run_lock.RunDirInUse`), a Hydra override or composition error | ``rlhc.run: error: <one line>``; no run directory is left behind, an existing one is left as it was | 2 |
-| SIGINT / SIGTERM during training | where the checkpoint is and the command that resumes it | 130 / 143 |
+| a resume of a run already at ``algo.max_steps`` | that it is finished; nothing is written | 0 |
+| a user error (:data:`~rlhc.cli.hydra_hooks.USER_ERRORS`) | ``rlhc.run: error: <one line>``; no run directory is left behind | 2 |
+| SIGINT / SIGTERM during training | the checkpoint and the command that resumes it | 130 / 143 |
 
-``HYDRA_FULL_ERROR=1`` shows the traceback of a user error instead. Any other error is
-a bug and keeps its traceback (exit 1).
-
-A single run is checked (:mod:`rlhc.cli.start`) before Hydra creates its directory, by
-the ``Preflight`` callback. A multirun job is checked inside the job, after Hydra
-created its directory, so the ``rlhc.output_subdir`` resolver keeps Hydra from writing
-``.hydra/`` into the directory of a job that will not train
-(:mod:`rlhc.cli.hydra_hooks`), and after a user error :mod:`rlhc.cli.cleanup` removes
-only what the failed start created: empty directories and an empty job log, never a file
-with content (a trained run's ``checkpoints/``, ``metrics.csv``, logs or ``.hydra/``).
-A resume loads and checks its checkpoint once, in that first check, and the trainer
-continues from the state loaded there.
-
-Under ``torchrun --nproc_per_node=N`` every process runs this entry point
-(:mod:`rlhc.training.distributed`): rank 0 owns the run directory and all output; the other
-ranks write nothing (Hydra's files off, their log lines on stdout) and use rank 0's
-directory.
+``HYDRA_FULL_ERROR=1`` shows a user error's traceback; any other error is a bug (exit 1).
+Under ``torchrun`` rank 0 alone writes the run directory (:mod:`rlhc.training.distributed`).
 """
 
 from __future__ import annotations
@@ -86,10 +64,9 @@ register_configs()
 def main(cfg: DictConfig) -> float:
     """Train one run; returns the last logged mean cumulative reward (for sweepers).
 
-    A multirun job whose run is finished says so and returns ``nan``, writing nothing;
-    one that fails on a user error removes what its start created
-    (:func:`~rlhc.cli.cleanup.remove_failed_job`) and raises. The run directory's lock,
-    taken by the check, is released when training ends, however it ends.
+    A finished run returns ``nan``, writing nothing; a job that fails on a user error
+    removes what its start created and raises. The run directory's lock, taken by the
+    check, is released however training ends.
     """
     hydra_cfg = HydraConfig.get()
     run_dir = Path(hydra_cfg.runtime.output_dir)

@@ -4,7 +4,4 @@
 |---|---|
 | :mod:`rlhc.analysis.curves` | finding runs, reading ``metrics.csv`` and configs, grouping seeds by configuration, smoothing, final values |
 | :mod:`rlhc.analysis.drawing` | the figures: the paper's four metrics, a line per configuration (``python -m rlhc.plot``) |
-
-It reads what training wrote (``metrics.csv``, configs, a checkpoint's config when a run
-kept no ``.hydra/``) and trains nothing.
 """

@@ -1,28 +1,20 @@
 """Reading runs: ``metrics.csv`` and configs, seed grouping, smoothed curves, final values.
 
-The paper reports four curves against environment steps: cumulative reward, episode
-length, entropy and value estimate. Each run directory holds a ``metrics.csv`` (one row
-per summary, ``step`` = frames) and its composed config (``.hydra/config.yaml``, or the
-``config`` stored in its checkpoint). This module
-
-1. finds runs under the given paths (a multirun directory holds many);
-2. groups them by the config keys that differ between them, ignoring the seed — so
-   seeds of one configuration are averaged — and labels each group by those keys
-   (e.g. ``fusion=max, extended_obs=true``);
-3. smooths each run like TensorBoard (:func:`ema_smooth`), interpolates the runs of a
-   group onto common steps, and draws their mean with a shaded 95% Student t interval;
-4. gives, per run, the mean of the last 10% of a curve (:func:`final_values`): the
-   numbers a reproduction compares with Welch's t-test
-   (:func:`rlhc.evaluation.stats.welch_t_test`).
-
-Figures are drawn by :mod:`rlhc.analysis.drawing` from what this module reads.
+Each run directory holds a ``metrics.csv`` (one row per summary, ``step`` = frames) and
+its config (``.hydra/config.yaml``, or its checkpoint's). Runs are found and read
+(:func:`load_runs`), grouped by the config keys that differ between them, seeds aside
+(:func:`group_runs`), smoothed and averaged with a 95% t interval (:func:`aggregate`);
+:func:`final_values` gives the numbers a reproduction compares.
 
 Examples:
-    Three tiny runs, two seeds of PPO (``critic.fusion=local``) and one of RLHC:
+    Two seeds of PPO (``critic.fusion=local``) and one of RLHC:
 
-    >>> root = example_runs({("local", 0): 0.2, ("local", 1): 0.4, ("max", 0): 0.3})
-    >>> groups = group_runs(load_runs([root]))
-    >>> {label: [run.path.name for run in runs] for label, runs in groups.items()}
+    >>> steps = np.array([64.0, 128.0])
+    >>> runs = [
+    ...     Run(Path(f"{fusion}_{seed}"), {"step": steps}, {"critic.fusion": fusion, "seed": seed})
+    ...     for fusion, seed in (("local", 0), ("local", 1), ("max", 0))
+    ... ]
+    >>> {label: [run.path.name for run in members] for label, members in group_runs(runs).items()}
     {'fusion=local': ['local_0', 'local_1'], 'fusion=max': ['max_0']}
 """
 
@@ -86,40 +78,16 @@ class Run:
         return self.columns["step"]
 
 
-def example_runs(rewards: dict[tuple[str, int], float]) -> Path:
-    """Tiny runs for examples: ``(fusion, seed) -> final reward``, in a new temp directory.
-
-    Each run ``<fusion>_<seed>`` holds a ``.hydra/config.yaml`` (``critic.fusion``,
-    ``seed``) and a two-row ``metrics.csv`` (``racket/cumulative_reward`` 0.0 at step
-    64, the reward at step 128).
-    """
-    import tempfile
-
-    root = Path(tempfile.mkdtemp())
-    for (fusion, seed), reward in rewards.items():
-        run = root / f"{fusion}_{seed}"
-        (run / ".hydra").mkdir(parents=True)
-        (run / ".hydra" / "config.yaml").write_text(f"critic:\n  fusion: {fusion}\nseed: {seed}\n")
-        metrics = f"step,racket/cumulative_reward\n64,0.0\n128,{reward}\n"
-        (run / METRICS_FILE).write_text(metrics)
-    return root
-
-
 def split_run_paths(
     paths: Iterable[str | os.PathLike[str]],
 ) -> tuple[list[Path], list[Path]]:
     """The run directories (holding ``metrics.csv``) at or under ``paths``, and the paths with none.
 
     A path is a run directory, a directory with runs below it (a multirun) or a
-    ``metrics.csv`` file; any other file (a multirun's ``multirun.yaml``) or a directory
-    without ``metrics.csv`` below it holds no run.
+    ``metrics.csv`` file; any other path (a multirun's ``multirun.yaml``) holds no run.
 
-    Returns:
-        ``(runs, not_runs)``: run directories sorted without duplicates; paths holding no
-        run in the order given.
-
-    Raises:
-        FileNotFoundError: a path does not exist (named).
+    Returns ``(runs, not_runs)``: run directories sorted without duplicates, and the paths
+    holding no run in the order given; :class:`FileNotFoundError` names a missing path.
     """
     found: list[Path] = []
     not_runs: list[Path] = []
@@ -135,18 +103,6 @@ def split_run_paths(
         if not runs:
             not_runs.append(path)
     return sorted(dict.fromkeys(found)), not_runs
-
-
-def find_runs(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
-    """Run directories at or under ``paths``, sorted; every path must hold one.
-
-    Raises:
-        FileNotFoundError: a path does not exist, or holds no ``metrics.csv`` at all.
-    """
-    runs, not_runs = split_run_paths(paths)
-    if not_runs:
-        raise FileNotFoundError(f"no {METRICS_FILE} at or under {str(not_runs[0])!r}")
-    return runs
 
 
 def read_metrics(path: Path) -> dict[str, np.ndarray]:
@@ -181,23 +137,23 @@ def read_config(run_dir: Path) -> dict[str, Any]:
 
 
 def load_runs(paths: Iterable[str | os.PathLike[str]]) -> list[Run]:
-    """Every run at or under ``paths`` (see :func:`find_runs`), metrics and config read."""
-    return [
-        Run(run_dir, read_metrics(run_dir / METRICS_FILE), read_config(run_dir))
-        for run_dir in find_runs(paths)
-    ]
+    """Every run at or under ``paths`` (:func:`split_run_paths`), metrics and config read.
+
+    Raises:
+        FileNotFoundError: a path does not exist, or holds no ``metrics.csv`` at all.
+    """
+    runs, not_runs = split_run_paths(paths)
+    if not_runs:
+        raise FileNotFoundError(f"no {METRICS_FILE} at or under {str(not_runs[0])!r}")
+    return [Run(run, read_metrics(run / METRICS_FILE), read_config(run)) for run in runs]
 
 
 def ema_smooth(values: Sequence[float] | np.ndarray, weight: float = 0.8) -> np.ndarray:
     """TensorBoard's smoothing: a debiased exponential moving average.
 
-    ``m_i = w·m_{i-1} + (1 - w)·x_i`` from ``m_{-1} = 0``, reported as
-    ``m_i / (1 - w^{k})`` where ``k`` counts the finite values so far — the debias
-    that stops the curve starting at 0. Non-finite values are skipped and stay ``nan``.
-
-    Args:
-        values: the raw curve.
-        weight: ``w`` in ``[0, 1)``; 0 returns the curve unchanged.
+    ``m_i = w·m_{i-1} + (1 - w)·x_i`` from ``m_{-1} = 0``, reported as ``m_i / (1 - w^k)``,
+    ``k`` the finite values so far (so the curve does not start at 0). Non-finite values
+    are skipped and stay ``nan``; ``weight`` ``w`` lies in ``[0, 1)`` (0: no smoothing).
 
     Examples:
         >>> ema_smooth([1.0, 1.0, 1.0], 0.9).tolist()
@@ -220,17 +176,11 @@ def ema_smooth(values: Sequence[float] | np.ndarray, weight: float = 0.8) -> np.
 
 
 def group_runs(runs: Sequence[Run], group_by: Sequence[str] | None = None) -> dict[str, list[Run]]:
-    """Runs grouped by configuration, keyed by a readable label.
+    """Runs grouped by configuration: ``label -> runs``, labels in first-seen order.
 
-    Args:
-        runs: the runs.
-        group_by: config keys that define a configuration (e.g.
-            ``["critic.fusion", "env.extended_obs"]``). ``None``: every key whose value
-            differs between the runs, except seeds, paths and logging options.
-
-    Returns:
-        ``label -> runs``, labels in first-seen order. A run without a known config is
-        its own group, labelled by its directory name.
+    ``group_by`` names the config keys that define a configuration (e.g.
+    ``["critic.fusion", "env.extended_obs"]``; ``None``: :func:`differing_keys`). A run
+    without a known config is its own group, labelled by its directory name.
     """
     keys = list(group_by) if group_by is not None else differing_keys(runs)
     if not keys:
@@ -248,8 +198,8 @@ def group_runs(runs: Sequence[Run], group_by: Sequence[str] | None = None) -> di
 def differing_keys(runs: Sequence[Run]) -> list[str]:
     """Config keys whose values differ between runs (seeds and bookkeeping excluded).
 
-    Keys are compared within each game: runs of two games differ in every Table 3
-    value, so across games only ``env.name`` is reported, plus what varies inside a game.
+    Across games only ``env.name`` is reported (they differ in every Table 3 value), plus
+    what varies inside a game.
     """
     by_env: dict[Any, list[Run]] = defaultdict(list)
     for run in runs:
@@ -288,10 +238,9 @@ def aggregate(
 ) -> Curve | None:
     """Smooth each run's ``metric``, align the runs on common steps, and average them.
 
-    Steps are the union of the runs' logged steps up to the shortest run's end; each
-    smoothed run is linearly interpolated there. The t band is clipped to ``bounds``,
-    the values ``metric`` can take (a count is never below 0, a share never above 1).
-    ``None`` if no run logged ``metric``.
+    The steps are the union of the runs' steps up to the shortest run's end, where each
+    run is interpolated. The t band is clipped to ``bounds``, the values ``metric`` can
+    take (e.g. a share's ``(0, 1)``). ``None`` if no run logged ``metric``.
     """
     series = []
     for run in runs:
@@ -324,11 +273,8 @@ def panel_metrics(runs: Sequence[Run], leaves: Iterable[str] = PAPER_METRICS) ->
 
 
 def final_values(runs: Sequence[Run], metric: str, fraction: float = 0.1) -> dict[Path, float]:
-    """Per run, the mean raw value of ``metric`` over the last ``fraction`` of its steps.
-
-    The window is ``step >= (1 - fraction) · last_step`` (raw, unsmoothed values, so
-    that the numbers do not depend on the display smoothing). Runs that never logged
-    ``metric`` are left out.
+    """Per run, the mean raw (unsmoothed) value of ``metric`` where
+    ``step >= (1 - fraction) · last_step``; runs that never logged ``metric`` are left out.
 
     Examples:
         >>> run = Run(Path("r"), {"step": np.arange(1.0, 11.0), "m": np.arange(10.0)})
@@ -346,25 +292,3 @@ def final_values(runs: Sequence[Run], metric: str, fraction: float = 0.1) -> dic
         if window.any():
             values[run.path] = float(column[window].mean())
     return values
-
-
-def final_values_by_group(
-    paths: Iterable[str | os.PathLike[str]],
-    metric: str,
-    fraction: float = 0.1,
-    group_by: Sequence[str] | None = None,
-) -> dict[str, list[float]]:
-    """:func:`final_values` of the runs under ``paths``, per configuration label.
-
-    Examples:
-        Two seeds of PPO (``critic.fusion=local``) and one of RLHC, two summaries each:
-
-        >>> root = example_runs({("local", 0): 0.25, ("local", 1): 0.5, ("max", 0): 1.0})
-        >>> final_values_by_group([root], "racket/cumulative_reward")  # the last 10%: step 128
-        {'fusion=local': [0.25, 0.5], 'fusion=max': [1.0]}
-    """
-    groups = group_runs(load_runs(paths), group_by)
-    return {
-        label: list(final_values(members, metric, fraction).values())
-        for label, members in groups.items()
-    }

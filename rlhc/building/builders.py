@@ -1,8 +1,4 @@
-"""Factories that turn a validated :class:`~rlhc.config.train_schema.TrainConfig` into objects.
-
-Shared by the trainer and the evaluation tools, so that a checkpoint's config rebuilds
-exactly the networks that were trained.
-"""
+"""Factories that turn a validated :class:`~rlhc.config.train_schema.TrainConfig` into objects."""
 
 from __future__ import annotations
 
@@ -77,9 +73,8 @@ class Layout:
     ) -> Layout:
         """The layout of an update; :class:`ConfigError` names any setting that cannot work.
 
-        ``shards`` data-parallel processes (:mod:`rlhc.training.distributed`) each step
-        ``num_envs / shards`` worlds and compute ``1 / shards`` of every minibatch: both
-        must split evenly. ``num_envs`` counts the worlds of every process.
+        ``shards`` data-parallel processes each step ``num_envs / shards`` worlds (of the
+        ``num_envs`` of all processes) and compute ``1 / shards`` of every minibatch.
         """
         n = agents_per_world
         if batch_size % n:
@@ -138,10 +133,7 @@ class Layout:
 
     @staticmethod
     def from_config(cfg: TrainConfig, shards: int = 1) -> Layout:
-        """The layout of ``cfg`` over ``shards`` data-parallel processes.
-
-        Builds a one-world game to count its agents.
-        """
+        """The layout of ``cfg`` over ``shards`` data-parallel processes (builds a one-world game)."""
         return Layout.build(
             buffer_size=cfg.algo.buffer_size,
             batch_size=cfg.algo.batch_size,
@@ -211,12 +203,10 @@ def network_config(cfg: TrainConfig) -> NetworkConfig:
         (64, 'gaussian')
     """
     # Every field of the network schema, so that a setting added to it reaches the nets.
-    return NetworkConfig(
-        **{
-            field.name: getattr(cfg.model, field.name)
-            for field in dataclasses.fields(NetworkConfig)
-        }
-    )
+    fields = {
+        field.name: getattr(cfg.model, field.name) for field in dataclasses.fields(NetworkConfig)
+    }
+    return NetworkConfig(**fields)
 
 
 def trainable_parameters(losses: Mapping[str, torch.nn.Module]) -> list[torch.nn.Parameter]:
@@ -234,14 +224,10 @@ def make_agents(
 ) -> tuple[dict[str, torch.nn.Module], dict[str, HierarchicalPPOLoss]]:
     """One actor and one PPO loss (owning both critics) per group, on ``cfg.device``.
 
-    Args:
-        cfg: a validated training config.
-        env: the env whose specs size the networks.
-        learner_weighted: build the losses for
-            :func:`~rlhc.objectives.learner_weighted_loss`, as the trainer does:
-            per-sample terms and no TorchRL standardisation (that function reduces the
-            terms and, with ``algo.normalize_advantage``, standardises the advantage
-            under the learner weight). Otherwise TorchRL's means and standardisation.
+    ``env``'s specs size the networks. ``learner_weighted`` builds the losses for
+    :func:`~rlhc.objectives.learner_weighted_loss`, as the trainer does: per-sample terms
+    that it reduces and standardises under the learner weight; otherwise TorchRL's means
+    and standardisation.
     """
     net = network_config(cfg)
     actors: dict[str, torch.nn.Module] = {}

@@ -1,13 +1,9 @@
 """Arithmetic of the networks: FLOP of their ``Linear`` layers per world-decision.
 
-Counted, not timed: every ``nn.Linear`` of a built network costs
-``in_features x out_features`` multiply-adds (MAC) per agent it is applied to, and a
-MAC is 2 FLOP. Activations, biases, the distributions and the optimiser are left out
-(a few percent at the sizes of Table 3). Networks are built with
-:func:`rlhc.building.builders.make_agents`, exactly as the trainer builds them.
-
-Not imported by :mod:`rlhc.modules` (it reads a whole training config); the benchmarks
-import it from here.
+Counted, not timed: every ``nn.Linear`` of a network, built as the trainer builds it
+(:func:`rlhc.building.builders.make_agents`), costs ``in_features x out_features``
+multiply-adds (MAC, 2 FLOP) per agent it is applied to. Activations, biases, the
+distributions and the optimiser are left out (a few percent at Table 3's sizes).
 """
 
 from __future__ import annotations
@@ -30,16 +26,7 @@ FORWARD_BACKWARD = 3
 
 
 def linear_macs(module: nn.Module) -> int:
-    """Multiply-adds of one input row through every ``nn.Linear`` of ``module``.
-
-    Each layer counts once, however often it appears in the module tree (a shared
-    trunk inside a sequence counts once per network that holds it).
-
-    Args:
-        module: a network, e.g. an actor or a critic.
-
-    Returns:
-        ``sum(in_features * out_features)`` over its distinct ``nn.Linear`` layers.
+    """Multiply-adds of one input row through every distinct ``nn.Linear`` of ``module``.
 
     Examples:
         >>> from torch import nn
@@ -57,23 +44,13 @@ def linear_macs(module: nn.Module) -> int:
 class GroupFlops:
     """Forward FLOP of one group's networks per world-decision (all its agents).
 
-    Attributes:
-        agents: agents of the group in one world (each network runs once per agent).
-        actor: the policy.
-        worker_critic: ``V_w`` (with a shared trunk: the trunk and the value head).
-        manager_critic: ``V_m``; 0 where it is not run (PPO without
-            ``critic.manager_diagnostics``).
+    ``manager_critic`` is 0 where it is not run (PPO without ``critic.manager_diagnostics``).
     """
 
     agents: int
     actor: int
     worker_critic: int
     manager_critic: int
-
-    @property
-    def critics(self) -> int:
-        """Both critics."""
-        return self.worker_critic + self.manager_critic
 
 
 @dataclass(frozen=True)
@@ -82,10 +59,8 @@ class TrainingFlops:
 
     Attributes:
         collection: every group's actor, forward (the env's own cost excluded).
-        update: the value estimator (the critics, forward, once per observation: the
-            few ``"next"`` observations evaluated again after episode ends and cuts
-            are left out) plus ``epochs`` passes of the loss (actor and critics, forward
-            and backward, :data:`FORWARD_BACKWARD` forward passes each).
+        update: the critics once forward (the value estimator) plus ``epochs`` passes of
+            the loss (actor and critics, forward and backward: :data:`FORWARD_BACKWARD`).
     """
 
     collection: int
@@ -95,13 +70,7 @@ class TrainingFlops:
 def network_flops(cfg: TrainConfig, env: EnvBase | None = None) -> dict[str, GroupFlops]:
     """Forward FLOP per world-decision of each group's actor and critics under ``cfg``.
 
-    Args:
-        cfg: a training config (its ``model`` section shapes the networks).
-        env: the env whose specs size the networks; ``None`` builds a one-world
-            ``cfg.env.name`` env with the config's game options.
-
-    Returns:
-        ``group -> GroupFlops``.
+    ``env`` sizes the networks (``None``: a one-world env of ``cfg.env``).
 
     Examples:
         >>> from rlhc.config.train_schema import compose_config
@@ -116,35 +85,17 @@ def network_flops(cfg: TrainConfig, env: EnvBase | None = None) -> dict[str, Gro
     for group, loss in losses.items():
         agents, _ = observation_size(env, group)
         estimator = loss.value_estimator
-        networks = {
-            "actor": loss.actor_network,
-            "worker_critic": estimator.worker_value_network,
-        }
+        networks = {"actor": loss.actor_network, "worker_critic": estimator.worker_value_network}
         if estimator.runs_manager:
             networks["manager_critic"] = estimator.manager_value_network
-        flops[group] = GroupFlops(
-            agents=agents,
-            **{"manager_critic": 0}
-            | {
-                name: FLOP_PER_MAC * agents * linear_macs(network)
-                for name, network in networks.items()
-            },
-        )
+        counts = {name: FLOP_PER_MAC * agents * linear_macs(net) for name, net in networks.items()}
+        flops[group] = GroupFlops(agents=agents, **{"manager_critic": 0} | counts)
     return flops
 
 
 def training_flops(cfg: TrainConfig, env: EnvBase | None = None) -> TrainingFlops:
-    """FLOP per world-decision of collection and of an update under ``cfg``.
-
-    Every world-decision of a batch is counted in every one of the ``algo.epochs``
-    (ML-Agents 0.5 leaves out a shuffled remainder, under one minibatch, per epoch).
-
-    Args:
-        cfg: a training config.
-        env: as in :func:`network_flops`.
-
-    Returns:
-        A :class:`TrainingFlops`.
+    """FLOP per world-decision of collection and of an update under ``cfg`` (``env``: as
+    in :func:`network_flops`); every world-decision counts in every epoch.
 
     Examples:
         >>> from rlhc.config.train_schema import compose_config
@@ -155,7 +106,7 @@ def training_flops(cfg: TrainConfig, env: EnvBase | None = None) -> TrainingFlop
     """
     groups = network_flops(cfg, env).values()
     actors = sum(group.actor for group in groups)
-    critics = sum(group.critics for group in groups)
+    critics = sum(group.worker_critic + group.manager_critic for group in groups)
     estimator = critics  # V(o_t) once per observation (shifted), no gradient
     loss = cfg.algo.epochs * FORWARD_BACKWARD * (actors + critics)
     return TrainingFlops(collection=actors, update=estimator + loss)

@@ -1,17 +1,11 @@
 """Potential-based reward shaping (beyond the paper; off unless ``shaping.scale > 0``).
 
 Ng, Harada & Russell (1999): adding ``F(s, s') = γ Φ(s') − Φ(s)`` to every reward keeps
-the optimal policies of an MDP for any potential ``Φ`` of the state. Over an episode
-the terms telescope: ``Σ_t γ^t F_t = γ^T Φ(s_T) − Φ(s_0)``, with ``Φ(s_T) = 0`` when the
-episode terminates (a goal) and the bootstrap carrying it on truncation.
-
-:class:`PotentialShaping` is a TorchRL transform placed *after* the episode-return
-tracking, so ``cumulative_reward`` in the logs stays the game's own (Table 2's)
-reward, and the learning curves of a shaped run compare with unshaped ones.
-
-| game | potential |
-|---|---|
-| soccer | ball progress towards the opponents' goal, in ``[-1, 1]`` (:mod:`rlhc.envs.soccer.shaping`) |
+the optimal policies of an MDP for any potential ``Φ`` of the state (``Φ = 0`` once the
+episode terminates). :class:`PotentialShaping` is placed *after* the episode-return
+tracking, so the logged ``cumulative_reward`` stays the game's own reward. A game's
+potential comes from its registry entry (soccer: the ball's progress towards the
+opponents' goal, :mod:`rlhc.envs.soccer.shaping`).
 """
 
 from __future__ import annotations
@@ -46,14 +40,8 @@ def game_potential(game: object) -> Potential:
 
 
 class PotentialShaping(Transform):
-    """Adds ``scale · (γ Φ(s') − Φ(s))`` to each group's reward.
-
-    Args:
-        potential: returns ``Φ`` of the env's current state, per group ``[N, n_g]``.
-        groups: the agent groups whose ``(g, "reward")`` is shaped.
-        gamma: the discount of the learner (``algo.gamma``).
-        scale: the weight ``c``.
-    """
+    """Adds ``scale · (γ Φ(s') − Φ(s))`` to the reward of each of ``groups``, ``potential``
+    returning ``Φ`` of the env's current state per group ``[N, n_g]``."""
 
     def __init__(self, potential: Potential, groups: list[str], gamma: float, scale: float):
         keys = [(g, REWARD) for g in groups]

@@ -1,7 +1,5 @@
-"""What the entry points share, and their lifecycle around Hydra.
-
-The entry points themselves (:mod:`rlhc.run`, :mod:`rlhc.evaluate`, :mod:`rlhc.plot`)
-are wiring only; what they do before and after their work lives here:
+"""What the entry points (:mod:`rlhc.run`, :mod:`rlhc.evaluate`, :mod:`rlhc.plot`) share,
+and their lifecycle around Hydra.
 
 | module | holds |
 |---|---|

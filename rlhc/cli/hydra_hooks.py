@@ -7,8 +7,7 @@
 | ``${rlhc.run_dir:…}`` (``hydra.run.dir``) | :func:`run_directory` | a resume continues in the resumed run's directory |
 | ``${rlhc.output_subdir:…}`` (``hydra.output_subdir``) | :func:`output_subdir` | a multirun job that will not train gets no ``.hydra/`` |
 
-The resolvers are registered when this module is imported (by :mod:`rlhc.run`, and by
-Hydra when it instantiates the callback).
+The resolvers are registered when this module is imported.
 """
 
 from __future__ import annotations
@@ -35,11 +34,8 @@ USER_ERRORS: tuple[type[BaseException], ...] = (*HYDRA_USER_ERRORS, ResumeError,
 
 
 class PreflightFailed(BaseException):
-    """A user error found by a callback, carried past Hydra to the entry point's ``cli``.
-
-    A ``BaseException``: Hydra turns a callback's ``Exception`` into a warning and runs
-    the job anyway.
-    """
+    """A user error found by a callback, carried past Hydra to the entry point's ``cli``
+    (a ``BaseException``: Hydra turns a callback's ``Exception`` into a warning)."""
 
     def __init__(self, error: BaseException) -> None:
         super().__init__(str(error))
@@ -50,11 +46,8 @@ class Preflight(Callback):
     """Hydra callback: check a single run (:func:`rlhc.cli.start.checked`) before Hydra
     creates its directory.
 
-    Configured in ``conf/train.yaml`` (``hydra.callbacks``). A finished run ends here
-    (exit 0) without writing anything; a user error reaches :func:`rlhc.run.cli` as
-    :class:`PreflightFailed`. The check (with the checkpoint it loaded and the run
-    directory's lock it took) is kept for the job. A multirun checks each job in
-    :func:`output_subdir` and in :func:`rlhc.run.main` instead.
+    A finished run ends here (exit 0) without writing anything; a user error reaches
+    :func:`rlhc.run.cli` as :class:`PreflightFailed`. The check is kept for the job.
     """
 
     def on_run_start(self, config: DictConfig, **kwargs: Any) -> None:
@@ -71,11 +64,8 @@ class Preflight(Callback):
 
 
 class EvaluatePreflight(Callback):
-    """Hydra callback: check a single evaluation before Hydra creates its directory.
-
-    Configured in ``conf/evaluate.yaml`` (``hydra.callbacks``): the values and every
-    player (:func:`rlhc.evaluation.commands.check_evaluation`). A user error reaches
-    :func:`rlhc.evaluate.cli` as :class:`PreflightFailed`, with nothing written.
+    """Hydra callback: check a single evaluation (values and players) before Hydra creates
+    its directory; a user error reaches :func:`rlhc.evaluate.cli` as :class:`PreflightFailed`.
     """
 
     def on_run_start(self, config: DictConfig, **kwargs: Any) -> None:
@@ -88,11 +78,8 @@ class EvaluatePreflight(Callback):
 
 
 def run_directory(resume: str | None, default: str) -> str:
-    """``hydra.run.dir``: the resumed run's directory, else ``default`` (a new one).
-
-    Registered as the ``rlhc.run_dir`` resolver; ``hydra.run.dir=`` on the command line
-    replaces the interpolation, so an explicit directory always wins. ``resume=auto``
-    names no other run: the run directory is ``default``.
+    """``hydra.run.dir`` (the ``rlhc.run_dir`` resolver): the resumed run's directory, else
+    ``default`` (a new one; also for ``resume=auto``). A ``hydra.run.dir=`` override wins.
 
     Examples:
         >>> run_directory(None, "outputs/new"), run_directory("auto", "outputs/new")
@@ -105,19 +92,10 @@ def run_directory(resume: str | None, default: str) -> str:
 def output_subdir(subdir: str, *, _root_: DictConfig) -> str | None:
     """``hydra.output_subdir``: ``subdir``, or ``None`` for a multirun job that will not train.
 
-    Registered as the ``rlhc.output_subdir`` resolver. Hydra writes ``.hydra/`` into a
-    multirun job's directory before the job starts and offers no hook before that, so
-    this answers, for each job, whether its check (:func:`rlhc.cli.start.checked`) lets
-    it train: a finished run's directory must stay as it was, and so must any directory
-    a user error reaches; a job that will train takes its directory's lock in that check,
-    before ``.hydra/`` is written. A single run was checked already (:class:`Preflight`).
-
-    Args:
-        subdir: where ``.hydra/`` goes when the job trains (Hydra's ``.hydra``).
-        _root_: the job's whole config (given by OmegaConf).
-
-    Returns:
-        ``subdir``, or ``None`` (Hydra's "write no ``.hydra/``").
+    The ``rlhc.output_subdir`` resolver. Hydra writes ``.hydra/`` into a multirun job's
+    directory before the job starts, with no hook before that: this checks the job
+    (:func:`rlhc.cli.start.checked`) so that a finished run's directory, or one a user
+    error reaches, stays as it was. ``_root_``: the job's whole config.
     """
     try:
         hydra_cfg = HydraConfig.get()

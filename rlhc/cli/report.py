@@ -1,10 +1,7 @@
 """How the entry points talk to a user: a user error in one line, paths as typed.
 
-Every entry point (``rlhc.run``, ``rlhc.evaluate``, ``rlhc.plot``) runs its work inside
-:func:`user_errors_in_one_line`: an error the user fixes by changing the command line
-prints ``<program>: error: <one line>`` on stderr and exits with code 2 (as argparse
-does); ``HYDRA_FULL_ERROR=1`` shows its traceback instead. Any other error is a bug and
-keeps its traceback (exit 1).
+Every entry point runs its work inside :func:`user_errors_in_one_line`; any error that
+is not a user error is a bug and keeps its traceback (exit 1).
 """
 
 from __future__ import annotations
@@ -42,16 +39,8 @@ def user_errors_in_one_line(
 ) -> Iterator[None]:
     """Report ``errors`` raised inside as ``<program>: error: <one line>`` and exit 2.
 
-    Hydra is told to let exceptions through unprinted (``HYDRA_FULL_ERROR=1``, its
-    documented switch, for the duration only), so that they arrive here. If the user
-    set ``HYDRA_FULL_ERROR=1``, ``errors`` propagate with their traceback instead.
-
-    Args:
-        program: the name the line starts with, e.g. ``rlhc.evaluate``.
-        errors: the exception types that are user errors.
-
-    Raises:
-        SystemExit: code 2 (:data:`USAGE_ERROR`) after one of ``errors``.
+    Hydra lets exceptions through unprinted meanwhile (its switch ``HYDRA_FULL_ERROR=1``);
+    if the user set it, ``errors`` propagate with their traceback instead.
 
     Examples:
         >>> import contextlib, io

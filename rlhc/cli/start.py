@@ -1,17 +1,10 @@
 """Before a training run writes anything: its config checked, its checkpoint loaded once,
 its directory locked.
 
-A start is checked before Hydra writes into the run's directory: a single run by the
-``Preflight`` callback, a multirun job by the ``rlhc.output_subdir`` resolver (both in
-:mod:`rlhc.cli.hydra_hooks`), and then again when :func:`rlhc.run.main` starts the job.
-Loading a checkpoint is the costly part of a check, so the latest check is kept: the
-job takes it (:func:`take_checked`), checkpoint included, and hands that checkpoint
-to the :class:`~rlhc.training.trainer.Trainer`. A resume loads its checkpoint once.
-
-A start that will train then takes its run directory's lock
-(:mod:`rlhc.storage.run_lock`), so that no other process trains there until
-:func:`rlhc.run.main` releases it; under ``torchrun`` rank 0 alone, whose directory the
-other ranks use.
+A start is checked before Hydra writes into the run's directory (:mod:`rlhc.cli.hydra_hooks`)
+and again when :func:`rlhc.run.main` starts the job, which takes the kept check
+(:func:`take_checked`) with the checkpoint it loaded. A start that will train takes its
+run directory's lock (:mod:`rlhc.storage.run_lock`; under ``torchrun``, rank 0 alone).
 """
 
 from __future__ import annotations
@@ -41,11 +34,8 @@ class Start:
 
     Attributes:
         cfg: the config to train, ``resume=auto`` resolved (:func:`resolve_resume`).
-        state: the checkpoint it continues (:func:`rlhc.storage.checkpoint.load_checkpoint`,
-            checked by :func:`rlhc.training.training_state.check_resumable`); ``None``: a fresh run.
-        recorded: with ``resume=auto`` and no checkpoint, the frames that the run
-            directory's ``metrics.csv`` records as trained (a run whose checkpoints were
-            not kept, such as a committed study run in a fresh clone); ``None`` otherwise.
+        state: the checked checkpoint it continues; ``None``: a fresh run.
+        recorded: :func:`recorded_without_checkpoint`.
     """
 
     cfg: TrainConfig
@@ -76,8 +66,7 @@ _latest: tuple[str, Start] | None = None
 
 
 def task_config(config: DictConfig) -> Any:
-    """The task's config object (its schema's dataclass, e.g. :class:`TrainConfig`) of a
-    composed config, without its ``hydra`` node if it has one."""
+    """The schema's dataclass (e.g. :class:`TrainConfig`) of a composed config, less ``hydra``."""
     task = copy.deepcopy(config)
     with read_write(task), open_dict(task):
         task.pop("hydra", None)
@@ -87,14 +76,9 @@ def task_config(config: DictConfig) -> Any:
 def resolve_resume(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
     """``cfg`` with ``resume=auto`` replaced by what it means in ``run_dir``.
 
-    ``auto`` becomes ``run_dir`` when it holds a checkpoint file and ``None`` (a fresh
-    run) otherwise; any other value is kept. A directory whose checkpoint files all fail
-    to load becomes ``run_dir`` too, so that :func:`preflight` refuses it, naming each
-    file, rather than a fresh run overwriting the run's ``metrics.csv``.
-
-    Args:
-        cfg: the composed config (not changed).
-        run_dir: the directory this run writes to.
+    ``auto`` becomes ``run_dir`` when it holds a checkpoint file, even one that fails to
+    load (then :func:`preflight` refuses it rather than a fresh run overwriting the
+    record), and ``None`` (a fresh run) otherwise; any other value is kept.
 
     Examples:
         >>> resolve_resume(TrainConfig(resume="auto"), Path("no/such/run")).resume is None
@@ -109,13 +93,9 @@ def resolve_resume(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
 def recorded_without_checkpoint(cfg: TrainConfig, run_dir: Path, *, auto: bool) -> int | None:
     """Frames a ``resume=auto`` run directory records in ``metrics.csv`` with no checkpoint.
 
-    A fresh run would overwrite that record: a finished one (``algo.max_steps``
-    reached) is left as it is, an unfinished one is refused.
-
-    Args:
-        cfg: the config, ``resume=auto`` resolved (:func:`resolve_resume`).
-        run_dir: the directory this run writes to.
-        auto: whether the config as given asked for ``resume=auto``.
+    Such a run (a committed study run in a fresh clone) is never trained over: a
+    finished one is left as it is, an unfinished one is refused. ``auto``: whether the
+    config as given asked for ``resume=auto`` (``cfg`` has it resolved).
 
     Raises:
         ResumeError: the record stops short of ``algo.max_steps``.
@@ -134,13 +114,8 @@ def recorded_without_checkpoint(cfg: TrainConfig, run_dir: Path, *, auto: bool) 
 
 
 def preflight(cfg: TrainConfig) -> dict[str, Any] | None:
-    """Check everything that can fail before a file is written; the checkpoint to resume.
-
-    Args:
-        cfg: the config, ``resume=auto`` already resolved (:func:`resolve_resume`).
-
-    Returns:
-        The loaded and checked checkpoint of ``cfg.resume``; ``None`` for a fresh run.
+    """Check everything that can fail before a file is written (``cfg.resume`` resolved);
+    the loaded and checked checkpoint of ``cfg.resume``, ``None`` for a fresh run.
 
     Raises:
         ConfigError: a value the schema let through but the trainer cannot use.
@@ -163,15 +138,9 @@ def preflight(cfg: TrainConfig) -> dict[str, Any] | None:
 def checked(config: DictConfig, run_dir: Path, *, fresh: bool = False) -> Start:
     """The checked start of a composed ``config`` in ``run_dir``, its directory locked.
 
-    The result is kept until the next check: checking the same config for the same
-    directory again returns it without loading the checkpoint again. A start that will
-    train (not finished) takes ``run_dir``'s lock, creating the directory, on rank 0.
-
-    Args:
-        config: the composed config (its ``hydra`` node, if any, is left out).
-        run_dir: the directory the run writes to (where ``resume=auto`` looks).
-        fresh: check even if the latest check was of the same start (the first check
-            of a start: what an earlier start left is never taken for it).
+    The result is kept until the next check of the same config and directory, which
+    returns it without loading the checkpoint again; ``fresh`` checks anew (the first
+    check of a start). A start that will train takes ``run_dir``'s lock on rank 0.
 
     Raises:
         ConfigError, ResumeError: as :func:`preflight`.

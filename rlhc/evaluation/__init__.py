@@ -8,8 +8,7 @@
 | :mod:`~rlhc.evaluation.matches` | batched matches between two teams, :func:`evaluate_against` |
 | :mod:`~rlhc.evaluation.video` | a match rendered to GIF or MP4 with a score overlay |
 
-The torch-dependent modules are imported on first use, so that ``rlhc.plot`` (which
-needs only :mod:`~rlhc.evaluation.stats`) starts quickly.
+The modules that need TorchRL are imported on first use, so that ``rlhc.plot`` starts quickly.
 
 Examples:
     >>> from rlhc.evaluation import EloTable, wilson_interval

@@ -48,12 +48,9 @@ def player_settings(cfg: EvaluateConfig) -> dict[str, str]:
 
 
 def check_evaluation(cfg: EvaluateConfig) -> None:
-    """Check an evaluation before a match is played: its values, then its players.
-
-    Raises:
-        ConfigError: naming the setting, its value and what is wrong
-            (:func:`rlhc.config.validation.validate_evaluate`,
-            :func:`rlhc.evaluation.opponents.check_players`).
+    """Check an evaluation before a match is played: its values
+    (:func:`rlhc.config.validation.validate_evaluate`), then its players
+    (:func:`rlhc.evaluation.opponents.check_players`); :class:`ConfigError` if wrong.
     """
     validate_evaluate(cfg)
     check_players(player_settings(cfg), cfg.env.name)
@@ -136,11 +133,8 @@ def run_match(cfg: EvaluateConfig, out_dir: Path) -> dict[str, Any]:
 
 
 def run_elo(cfg: EvaluateConfig, out_dir: Path) -> EloTable:
-    """``mode=elo``: a round robin of ``cfg.players``; print and write the standings.
-
-    With ``cfg.video.enabled``, one match per pairing is recorded into ``videos/``
-    (``<index>_<home>_vs_<away>.<format>``, home on team 0) and named in the pairing's row.
-    """
+    """``mode=elo``: a round robin of ``cfg.players``; print and write the standings (and
+    with ``cfg.video.enabled`` one video per pairing, named in its row)."""
     players = list(dict.fromkeys(cfg.players))
     player_options(players, cfg.env.name)  # fail before playing if two checkpoints disagree
     table = EloTable(k=cfg.k_factor, initial=cfg.initial_rating)
@@ -158,20 +152,10 @@ def run_elo(cfg: EvaluateConfig, out_dir: Path) -> EloTable:
         pairings.append(pairing)
     table.record_pairings(scores)
     standings = [{"player": p, "elo": r, "games": g} for p, r, g in table.standings()]
+    settings = {"env": cfg.env.name, "k": cfg.k_factor, "initial": cfg.initial_rating}
+    elo = {**settings, "standings": standings, "pairings": pairings}
     out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / ELO_FILE).write_text(
-        json.dumps(
-            {
-                "env": cfg.env.name,
-                "k": cfg.k_factor,
-                "initial": cfg.initial_rating,
-                "standings": standings,
-                "pairings": pairings,
-            },
-            indent=2,
-        )
-        + "\n"
-    )
+    (out_dir / ELO_FILE).write_text(json.dumps(elo, indent=2) + "\n")
     _write_csv(out_dir / STANDINGS_FILE, standings)
     _write_csv(out_dir / PAIRINGS_FILE, pairings)
     print(table.format())

@@ -9,9 +9,8 @@ and after each match moves both ratings by the surprise, scaled by ``K``:
 
     R_A' = R_A + K (S - E_A),    R_B' = R_B - K (S - E_A)
 
-so the total rating is conserved. Updates are applied one match at a time; a round
-robin interleaves the pairings (match 0 of every pairing, then match 1, …) so that no
-pairing is rated entirely before or after the others.
+so the total rating is conserved. A round robin interleaves the pairings (match 0 of
+every pairing, then match 1, …) so that no pairing is rated before the others.
 """
 
 from __future__ import annotations
@@ -38,16 +37,8 @@ def expected_score(rating: float, opponent: float) -> float:
 def elo_update(
     rating: float, opponent: float, score: float, k: float = K_FACTOR
 ) -> tuple[float, float]:
-    """Both ratings after one match in which the first player scored ``score``.
-
-    Args:
-        rating: first player's rating before the match.
-        opponent: second player's rating before the match.
-        score: first player's score, in ``[0, 1]`` (1 win, 0.5 draw, 0 loss).
-        k: the K-factor, the largest possible change.
-
-    Returns:
-        ``(new_rating, new_opponent)``.
+    """``(rating, opponent)`` after one match in which the first player scored ``score``
+    (1 win, 0.5 draw, 0 loss); ``k`` is the largest possible change.
 
     Examples:
         >>> [round(r, 2) for r in elo_update(1200, 1000, 0.0, k=32)]  # the favourite loses
@@ -61,11 +52,7 @@ def elo_update(
 
 @dataclass
 class EloTable:
-    """Ratings of named players, updated match by match.
-
-    Args:
-        k: the K-factor.
-        initial: the rating of a player's first appearance.
+    """Ratings of named players, updated match by match (``initial``: a newcomer's rating).
 
     Examples:
         >>> table = EloTable(k=32)
@@ -97,11 +84,7 @@ class EloTable:
         self.games[opponent] += 1
 
     def record_pairings(self, scores: Mapping[tuple[str, str], Sequence[float]]) -> None:
-        """Apply several pairings' match scores, interleaved (see the module docstring).
-
-        Args:
-            scores: ``(player, opponent) -> [score of player in match 0, 1, …]``.
-        """
+        """Apply ``(player, opponent) -> [score of player in match 0, 1, …]``, interleaved."""
         for player, opponent in scores:
             self.add(player)
             self.add(opponent)

@@ -1,28 +1,14 @@
 """Head-to-head matches between two team policies, many at once in one batched env.
 
-**Sides.** Match ``i`` puts the *home* policy on team ``i % 2`` (with ``swap_sides``),
-so over an even number of matches each policy plays exactly half on each side and any
-asymmetry of the game (serve order, pymunk solver order) cancels. Each world runs its
-matches one after another; routing is a per-world tensor ``home_side [K]``, so there
-is no Python loop over worlds: an agent takes the home action where its
-``(g, "team")`` equals its world's ``home_side``.
+**Sides.** Match ``i`` puts the *home* policy on team ``i % 2`` (with ``swap_sides``), so
+over an even number of matches any asymmetry of the game (serve order, solver order)
+cancels. Each world plays its matches one after another; an agent takes the home action
+where its ``(g, "team")`` equals its world's ``home_side`` (no Python loop over worlds).
 
-**Scoring.** Every step, the env reports ``("next", "scoring_team")``: the team that
-won the point or goal, ``-1`` if none. A match is won by the first team to
-``points_to_win`` points; it is a draw when ``max_steps`` steps pass first. Defaults
-(:func:`default_rules`) come from the game's registry entry
-(:attr:`GameSpec.points_to_win <rlhc.envs.registry.GameSpec>`), within
-``points_to_win × max_cycles`` steps: soccer — one goal wins and the step budget is one
-episode, so no goal by truncation is a draw; tennis — first to 5 points (a truncated
-rally scores nothing and a new serve follows), within 5 rallies of ``max_cycles`` steps.
-
-**Outcome statistics** (:class:`MatchResult`): wins, draws and losses from the home
-policy's view, each rate with its 95% Wilson interval (:func:`~rlhc.evaluation.stats.wilson_interval`),
-the share of all points the home side won (Wilson interval over points), the mean
-points of both sides, the mean match length, and the game's per-team events per point
-(tennis: ``hits_over_net_by_team``, the hits over the net of each side per point; and,
-for a game that says how a point ended, ``lost_<how>``, the share of all points that
-each side lost that way, e.g. ``lost_serve_missed``).
+**Scoring.** Every step the env reports ``("next", "scoring_team")`` (``-1``: none). The
+first team to ``points_to_win`` points wins; a match still undecided after ``max_steps``
+steps is a draw (:func:`default_rules`: soccer, one goal within one episode; tennis,
+first to 5 points within 5 rallies of ``max_cycles`` steps).
 """
 
 from __future__ import annotations
@@ -35,6 +21,7 @@ from typing import Any
 import numpy as np
 import torch
 from tensordict import TensorDictBase
+from torchrl.envs import EnvBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
 from rlhc.envs import make_env
@@ -46,13 +33,13 @@ from rlhc.envs.keys import (
     NEXT,
     RESET,
     SCORING_TEAM,
-    SCRIPTED,
     TEAM,
 )
 from rlhc.envs.registry import game_spec
 from rlhc.envs.torchrl_adapter import BatchedGameEnv
-from rlhc.evaluation.opponents import TeamPolicy, make_team_policy, player_options
+from rlhc.evaluation.opponents import make_team_policy, player_options
 from rlhc.evaluation.stats import wilson_interval
+from rlhc.evaluation.teams import TeamPolicy
 
 #: Called after the first reset and after every step with the env's current TensorDict,
 #: the points ``[K, 2]`` of the running matches (by team) and their steps ``[K]``
@@ -76,13 +63,9 @@ class MatchRules:
 def default_rules(
     env_name: str, max_cycles: int, points_to_win: int | None = None, max_steps: int | None = None
 ) -> MatchRules:
-    """The game's match rules (module docstring), with optional overrides.
+    """The game's match rules (its registry's ``points_to_win``), with optional overrides.
 
-    Args:
-        env_name: a registered game; its ``points_to_win`` is the default.
-        max_cycles: the game's episode length in decisions.
-        points_to_win: override of the game's default.
-        max_steps: override of ``points_to_win × max_cycles``.
+    ``max_steps`` is ``points_to_win × max_cycles`` (the game's episode length) unless given.
 
     Raises:
         ValueError: an unknown game (the registered ones are listed), or a rule below 1.
@@ -105,13 +88,16 @@ def default_rules(
 class MatchResult:
     """Per-match records of a series, from the home policy's point of view.
 
+    :meth:`summary` gives wins, draws and losses with Wilson intervals, the share of points
+    won, mean points and length, and the game's per-team events per point (e.g.
+    ``hits_over_net_by_team``; ``lost_<how>``: the share of points each side lost that way).
+
     Attributes:
         home: the home player's name; ``away`` likewise.
         home_side: ``[M]`` the team (0/1) the home policy played in each match.
         home_points: ``[M]`` points of the home side; ``away_points`` likewise.
         steps: ``[M]`` match length in env steps.
-        events: per-team event counts of the game (its ``published_info`` entries of
-            shape ``(2,)``), each ``[M, 2]``: home, away.
+        events: per-team event counts of the game, each ``[M, 2]``: home, away.
     """
 
     home: str
@@ -180,11 +166,10 @@ def route_actions(
     away: dict[str, torch.Tensor],
     home_side: torch.Tensor,
 ) -> None:
-    """Write each agent's action from the policy that controls its team, in place.
+    """Write each agent's action, in place, from the policy that controls its team.
 
     Args:
-        tensordict: the env's current TensorDict ``[K]``; its ``(g, "team")`` entries
-            say each agent's team, and ``(g, "action")`` is written.
+        tensordict: the env's current TensorDict ``[K]`` (its ``(g, "team")`` is read).
         home: the home policy's actions of every agent, ``{group: [K, n_g, ...]}``.
         away: the away policy's, likewise.
         home_side: ``int [K]``, the team (0 or 1) the home policy plays in each world.
@@ -317,12 +302,8 @@ def make_match_env(
     players: list[str],
     env_options: dict[str, Any] | None = None,
 ) -> BatchedGameEnv:
-    """The batched env of a match between ``players``.
-
-    Game options are ``env_options``, except those the checkpoint players were trained
-    with (e.g. ``extended_obs``), which win: their policies cannot see anything else.
-    A checkpoint that overrides a given option is reported on stdout.
-    """
+    """The batched env of a match between ``players``: ``env_options``, except those the
+    checkpoint players were trained with, which win (an override is reported on stdout)."""
     options = dict(env_options or {})
     for key, value in player_options(players, env_name).items():
         if key in options and options[key] != value:
@@ -334,32 +315,16 @@ def make_match_env(
 
 
 def evaluate_against(
-    policy: TeamPolicy,
-    opponent: str = SCRIPTED,
-    env: str | BatchedGameEnv = "soccer",
-    matches: int = 50,
-    *,
-    num_envs: int = 16,
-    seed: int = 0,
-    deterministic: bool = True,
-    points_to_win: int | None = None,
-    max_steps: int | None = None,
-    env_options: dict[str, Any] | None = None,
+    policy: TeamPolicy, opponent: str, env: EnvBase, matches: int, *, max_steps: int | None = None
 ) -> dict[str, Any]:
-    """Win rate of ``policy`` against a built-in opponent (for periodic evaluation).
+    """Win rate of ``policy`` against ``opponent`` in the match ``env`` (periodic evaluation).
 
     Args:
-        policy: ``tensordict -> {group: actions}`` on *raw* env observations (e.g. a
-            :class:`~rlhc.evaluation.policies.RestoredPolicy`, or the trainer's actors
-            behind a frozen copy of its normaliser).
+        policy: ``tensordict -> {group: actions}`` on raw env observations.
         opponent: ``"scripted"``, ``"random"`` or a checkpoint path.
-        env: a game name, or a match env from :func:`rlhc.envs.make_env` (reused as is).
-        matches: matches to play (half on each side).
-        num_envs: worlds in parallel when ``env`` is a name.
-        seed: the game's seed when ``env`` is a name.
-        deterministic: mode actions rather than samples.
-        points_to_win: override of :func:`default_rules`; ``max_steps`` likewise.
-        env_options: game options when ``env`` is a name (e.g. ``extended_obs=True``).
+        env: a match env from :func:`rlhc.envs.make_env`.
+        matches: matches to play with mode actions (half on each side).
+        max_steps: override of :func:`default_rules`.
 
     Returns:
         :meth:`MatchResult.summary`: ``win_rate``, ``win_rate_ci``, ``draw_rate``, …
@@ -372,17 +337,8 @@ def evaluate_against(
         >>> result["matches"]
         4
     """
-    if isinstance(env, str):
-        env = make_env(env, num_envs=min(num_envs, matches), seed=seed, **(env_options or {}))
     assert isinstance(env, BatchedGameEnv)
-    rules = default_rules(env.game.name, env.game.max_cycles, points_to_win, max_steps)
-    result = play_matches(
-        env,
-        policy,
-        make_team_policy(opponent, env),
-        matches,
-        rules,
-        deterministic=deterministic,
-        names=("policy", opponent),
-    )
+    rules = default_rules(env.game.name, env.game.max_cycles, max_steps=max_steps)
+    opponent_policy = make_team_policy(opponent, env)
+    result = play_matches(env, policy, opponent_policy, matches, rules, names=("policy", opponent))
     return result.summary()

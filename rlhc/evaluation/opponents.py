@@ -8,8 +8,6 @@ TensorDict to an action for every agent of every group; a *player spec* names on
 | ``random`` | uniform over each agent's action space (:class:`~rlhc.evaluation.teams.RandomPolicy`) |
 | ``scripted`` | the game's scripted team of the registry (:class:`~rlhc.evaluation.teams.ScriptedPolicy`) |
 | a path | a checkpoint or final-team file, or a run directory (its ``final_team.pt``, else its newest checkpoint: :func:`rlhc.storage.final_team.load_team`) |
-
-The built-in teams live in :mod:`rlhc.evaluation.teams` and are re-exported here.
 """
 
 from __future__ import annotations
@@ -73,19 +71,12 @@ def player_options(specs: list[str], env_name: str) -> dict[str, Any]:
 
 
 def check_players(players: Mapping[str, str], env_name: str) -> None:
-    """Refuse, before a match is played, a player that cannot play ``env_name``.
+    """Refuse, before a match is played, a player that cannot play ``env_name``: a path
+    that holds no checkpoint of this game, or checkpoints that disagree on the options
+    that shape observations.
 
-    Every checkpoint player is loaded (:func:`load_policy_checkpoint`): it must exist,
-    be an rlhc checkpoint or final team, have been trained on ``env_name``, and agree
-    with the other checkpoints on the options that shape observations.
-
-    Args:
-        players: ``setting -> player spec``, e.g. ``{"home": "scripted", "away": path}``
-            or ``{"players[0]": …}``: the setting names the player in the error.
-        env_name: the game the evaluation plays.
-
-    Raises:
-        ConfigError: naming the setting, its value and what is wrong, in one line.
+    ``players`` maps a setting to a player spec, e.g. ``{"home": "scripted", "away": path}``;
+    the :class:`ConfigError` names the setting, its value and what is wrong.
 
     Examples:
         >>> check_players({"home": "scripted", "away": "random"}, "soccer")
@@ -113,11 +104,7 @@ def check_players(players: Mapping[str, str], env_name: str) -> None:
 
 
 def make_team_policy(spec: str, env: BatchedGameEnv) -> TeamPolicy:
-    """The team policy named ``spec`` (``random``, ``scripted`` or a checkpoint path).
-
-    Args:
-        spec: see the module table.
-        env: the match env; checkpoints must have been trained on its game.
+    """The team policy named ``spec`` (module table) in the match ``env``.
 
     Examples:
         >>> from rlhc.envs import make_env
@@ -135,16 +122,3 @@ def make_team_policy(spec: str, env: BatchedGameEnv) -> TeamPolicy:
             "nor an existing checkpoint file or run directory"
         )
     return restore_policy(load_policy_checkpoint(spec, env.game.name), env)
-
-
-__all__ = [
-    "BUILT_IN",
-    "RandomPolicy",
-    "ScriptedPolicy",
-    "TeamPolicy",
-    "check_players",
-    "is_built_in",
-    "load_policy_checkpoint",
-    "make_team_policy",
-    "player_options",
-]

@@ -1,14 +1,11 @@
 """Rebuild a trained policy (actors + frozen observation normaliser) from a checkpoint.
 
-A checkpoint (:meth:`rlhc.training.trainer.Trainer.state`) stores the resolved training config,
-each group's actor weights and the state of the training env's transforms. When
-``algo.normalize_observations`` was on, that state holds a :class:`~rlhc.building.normalisation.SafeVecNorm` over
-``(g, "observation")`` and ``(g, "manager_observation")``; the actors were trained on
-normalised observations, so a restored policy must see its inputs (whichever of the two
-its actor reads, ``model.actor_view``) through the *same* statistics, frozen. The
-training env is rebuilt with :func:`rlhc.building.builders.make_training_env` (one world)
-so that the normaliser's settings (decay, eps, keys) come from the one place that
-defines them.
+A checkpoint (:meth:`rlhc.training.trainer.Trainer.state`) stores the training config,
+each group's actor weights and the state of the training env's transforms. Actors
+trained on normalised observations (``algo.normalize_observations``) must see them
+through the *same* statistics, frozen: the training env is rebuilt with
+:func:`rlhc.building.builders.make_training_env`, so that the normaliser's settings come
+from the one place that defines them, and its statistics are read from the checkpoint.
 """
 
 from __future__ import annotations
@@ -45,14 +42,8 @@ RENAMED_POLICIES = {"tanh_normal_exact": "tanh_normal"}
 
 
 def checkpoint_config(state: Mapping[str, Any]) -> TrainConfig:
-    """The checkpoint's training config as a typed :class:`TrainConfig`.
-
-    The ``env`` node is typed by the schema of the checkpoint's game in the registry.
-
-    Raises:
-        ValueError: the checkpoint's game is not registered (the message lists the
-            registered games).
-    """
+    """The checkpoint's training config as a typed :class:`TrainConfig`
+    (:class:`ValueError` if its game is not registered)."""
     config = OmegaConf.create(state["config"])
     for section, keys in RETIRED_SETTINGS.items():
         for key in keys:
@@ -87,9 +78,7 @@ class RestoredPolicy:
     """Per-group actors of a checkpoint with their frozen observation normaliser.
 
     Attributes:
-        actors: ``group -> actor`` (:func:`~rlhc.modules.make_actor`) reading
-            ``(g, "observation")`` or, with ``model.actor_view=manager``,
-            ``(g, "manager_observation")``.
+        actors: ``group -> actor`` (:func:`~rlhc.modules.make_actor`).
         loc: ``group -> [n_g, d]`` normaliser mean of what the actor reads, or ``None``
             (no normalisation).
         scale: ``group -> [n_g, d]`` normaliser scale, or ``None``.
@@ -103,10 +92,7 @@ class RestoredPolicy:
     clip: float | None = None
 
     def __call__(self, tensordict: TensorDictBase) -> dict[str, torch.Tensor]:
-        """Actions of every agent of every group (the caller keeps its own team's).
-
-        The input is not modified: observations are normalised in a copy.
-        """
+        """Actions of every agent of every group (the input is not modified)."""
         return {
             group: actor(self.inputs(group, tensordict))[group, ACTION]
             for group, actor in self.actors.items()
@@ -134,17 +120,8 @@ def observation_key(actor: torch.nn.Module) -> NestedKey:
 def restore_policy(state: Mapping[str, Any], env: EnvBase) -> RestoredPolicy:
     """Rebuild the actors and frozen normaliser of a checkpoint for ``env``.
 
-    The actors are rebuilt with :func:`~rlhc.modules.make_actor` from the checkpoint's
-    ``model`` config, so a ``model.shared_trunk`` run gets its trunk and policy head
-    back (the worker critic's value head is not part of a policy).
-
-    Args:
-        state: a loaded checkpoint (:func:`rlhc.storage.checkpoint.load_checkpoint`).
-        env: the evaluation env (built by :func:`rlhc.envs.make_env`); its specs must
-            match the ones the policy was trained on.
-
-    Returns:
-        A callable ``tensordict -> {group: actions}`` in eval mode.
+    ``state`` is a loaded checkpoint; ``env``'s specs must match the ones the policy was
+    trained on. Returns a callable ``tensordict -> {group: actions}`` in eval mode.
 
     Raises:
         ValueError: the checkpoint's observation sizes do not fit ``env``; the

@@ -1,17 +1,12 @@
 """Confidence intervals and tests for match results and learning curves.
 
-* Win rates are binomial proportions. Their interval is **Wilson's score interval**
-  (Wilson, 1927): unlike the normal ("Wald") interval it stays inside [0, 1] and keeps
-  close to its nominal coverage for small samples and for rates near 0 or 1 — exactly
-  the regime of a strong policy against a weak one.
-* Means over seeds use the **Student t** interval (few seeds, unknown variance).
-* Two configurations are compared with **Welch's t-test** (unequal variances), on
-  per-run values such as :func:`rlhc.analysis.curves.final_values`.
-* Over tasks and seeds, as Agarwal et al. (2021, "Deep RL at the edge of the
-  statistical precipice", the ``rliable`` library) recommend: the **interquartile mean**
-  with a **stratified bootstrap** interval, and the **probability of improvement**
-  ``P(X > Y)`` with its interval (scipy's ``bootstrap``; rliable itself would bring
-  pandas, statsmodels and arch for these two statistics).
+* Win rates: **Wilson's score interval**, which, unlike the normal one, stays inside
+  [0, 1] and keeps its coverage for small samples and rates near 0 or 1.
+* Means over a few seeds: the **Student t** interval; two configurations compared with
+  **Welch's t-test** (unequal variances).
+* Over tasks and seeds, as Agarwal et al. (2021, ``rliable``) recommend: the
+  **interquartile mean** and the **probability of improvement** ``P(X > Y)``, each with
+  a stratified bootstrap interval (scipy's ``bootstrap``).
 """
 
 from __future__ import annotations
@@ -35,8 +30,7 @@ def wilson_interval(successes: float, trials: int, confidence: float = 0.95) -> 
     """Wilson score interval of a binomial proportion ``successes / trials``.
 
     Args:
-        successes: number of successes, ``0 <= successes <= trials`` (a half-integer is
-            accepted, e.g. wins plus half the draws).
+        successes: ``0 <= successes <= trials`` (e.g. wins plus half the draws).
         trials: number of trials; with ``0`` the interval is the whole ``[0, 1]``.
         confidence: two-sided confidence level.
 
@@ -65,14 +59,7 @@ def wilson_interval(successes: float, trials: int, confidence: float = 0.95) -> 
 
 @dataclass(frozen=True)
 class MeanInterval:
-    """A sample mean with its two-sided Student t confidence interval.
-
-    Attributes:
-        mean: the sample mean (``nan`` for an empty sample).
-        low: lower bound (equal to ``mean`` for a single value: no spread is known).
-        high: upper bound.
-        n: sample size.
-    """
+    """A sample mean with its two-sided Student t interval (``low == high`` for one value)."""
 
     mean: float
     low: float
@@ -100,13 +87,7 @@ def t_interval(values: Sequence[float] | np.ndarray, confidence: float = 0.95) -
 
 
 def t_half_width(std: float | np.ndarray, n: int, confidence: float = 0.95) -> float | np.ndarray:
-    """Half-width ``t_{n-1} · std / sqrt(n)`` of the t interval (vectorised over ``std``).
-
-    Args:
-        std: sample standard deviation(s) with ``ddof=1``.
-        n: sample size, ``>= 2``.
-        confidence: two-sided confidence level.
-    """
+    """Half-width ``t_{n-1} · std / sqrt(n)`` of the t interval (``std``: ``ddof=1``, any shape)."""
     if n < 2:
         raise ValueError(f"a t interval needs at least 2 values, got {n}")
     _z(confidence)  # validates the level
@@ -119,12 +100,8 @@ def welch_t_test(
 ) -> tuple[float, float]:
     """Welch's two-sided t-test of equal means with unequal variances.
 
-    Args:
-        a: per-run values of one configuration (at least 2).
-        b: per-run values of the other (at least 2).
-
-    Returns:
-        ``(t, p_value)``; ``t > 0`` when ``a`` has the larger mean.
+    Returns ``(t, p_value)`` of two sets of per-run values (at least 2 each); ``t > 0``
+    when ``a`` has the larger mean.
 
     Examples:
         >>> t, p = welch_t_test([1.0, 1.1, 0.9], [2.0, 2.2, 1.8])
@@ -143,32 +120,11 @@ def welch_t_test(
 # --- aggregates over tasks and seeds (Agarwal et al. 2021, "rliable") ------------------
 @dataclass(frozen=True)
 class Estimate:
-    """A point estimate with a two-sided bootstrap confidence interval.
-
-    Attributes:
-        value: the estimate on the data as observed.
-        low: lower bound of the interval.
-        high: upper bound.
-    """
+    """A point estimate (on the data as observed) with a two-sided bootstrap interval."""
 
     value: float
     low: float
     high: float
-
-
-def iqm(values: Sequence[float] | np.ndarray) -> float:
-    """The interquartile mean: the mean of the middle 50 % of ``values``.
-
-    Robust to a few outlying seeds, yet less noisy than the median (Agarwal et al. 2021).
-
-    Examples:
-        >>> iqm([0.0, 1.0, 2.0, 3.0, 100.0, -100.0, 1.5, 2.5])
-        1.75
-    """
-    sample = np.asarray(values, dtype=np.float64).ravel()
-    if sample.size == 0:
-        raise ValueError("iqm of an empty sample")
-    return float(scipy_stats.trim_mean(sample, 0.25))
 
 
 def _tasks(scores_by_task: Sequence[Sequence[float]], what: str) -> list[np.ndarray]:
@@ -187,8 +143,7 @@ def _bootstrap_interval(
     seed: int,
 ) -> tuple[float, float]:
     """Percentile interval of ``statistic(*samples, axis=-1)``, each sample resampled on
-    its own (stratified). A sample of one value is the same in every resample: it is
-    held fixed (scipy's ``bootstrap`` needs two or more per sample it resamples)."""
+    its own (stratified); a sample of one value is held fixed (as scipy requires)."""
     varying = [i for i, sample in enumerate(samples) if sample.size > 1]
 
     def with_fixed(*drawn: np.ndarray, axis: int = -1) -> np.ndarray:
@@ -213,12 +168,12 @@ def iqm_interval(
     resamples: int = 2000,
     seed: int = 0,
 ) -> Estimate:
-    """IQM of the scores of every task (runs pooled) with a stratified bootstrap interval.
+    """Interquartile mean of every task's scores (runs pooled), with its interval.
 
-    Each resample draws, with replacement, as many runs from each task as it has
-    (stratified: a task never lends runs to another), pools them and takes the IQM;
-    the interval is the percentile interval of those IQMs (scipy's ``bootstrap``).
-    Scores of different tasks must share a scale (e.g. normalised, or win rates).
+    The IQM, the mean of the middle 50 %, is robust to a few outlying seeds yet less
+    noisy than the median. Each resample draws as many runs from each task as it has
+    (stratified); the interval is the percentile interval of the resampled IQMs. Scores
+    of different tasks must share a scale (e.g. win rates).
 
     Args:
         scores_by_task: one sequence of per-run scores (one per seed) per task.
@@ -253,8 +208,8 @@ def probability_of_improvement(
     """``P(X > Y)``: how likely a run of X beats a run of Y on a random task, with its interval.
 
     Per task, the Mann-Whitney probability that a score of X exceeds one of Y (ties
-    count half), averaged over tasks; the interval resamples the runs of X and of Y
-    within each task independently (stratified bootstrap, percentile interval).
+    count half), averaged over tasks; the interval resamples X's and Y's runs within
+    each task independently.
 
     Args:
         x_by_task: per task, the per-run scores of X (e.g. RLHC's seeds).
@@ -296,17 +251,11 @@ def probability_of_improvement(
 def separation_p_value(sizes: Sequence[tuple[int, int]]) -> float:
     """The smallest two-sided p-value a rank comparison of runs of these sizes can reach.
 
-    If the critic made no difference, the runs' order within each task is random: of
-    the ``C(n + m, n)`` ways to place ``n`` runs of X among ``m`` of Y, one puts every X
-    above every Y. So a complete separation in every task, in either direction, happens
-    by chance with this probability, and no comparison of these runs can be told from
-    chance at a lower level (2 runs against 2: 1/3).
+    Under the null, one of the ``C(n + m, n)`` orders of ``n`` runs of X and ``m`` of Y
+    puts every X above every Y: a complete separation in every task, either way, is
+    this likely by chance (2 runs against 2: 1/3), so no test of these runs goes lower.
 
-    Args:
-        sizes: per task, the number of runs of X and of Y.
-
-    Raises:
-        ValueError: no task, or a task without a run on a side.
+    ``sizes``: per task, the number of runs of X and of Y (at least one each).
 
     Examples:
         >>> round(separation_p_value([(2, 2)]), 3)

@@ -1,14 +1,10 @@
 """The built-in team policies: ``random`` and the game's ``scripted`` team.
 
-A *team policy* maps the env's current TensorDict (batch ``[K]`` worlds) to an action
-for **every** agent of every group, ``{group: [K, n_g, ...]}``; the match loop
-(:mod:`rlhc.evaluation.matches`) keeps the actions of the agents on this policy's side
-and discards the rest. Computing both teams' actions costs one batched call and keeps
-every policy free of team bookkeeping.
-
-This module reads only the env layer (no checkpoints, no training config), so that the
-league (:mod:`rlhc.training.league`) can use the built-in teams without importing the checkpoint
-machinery of :mod:`rlhc.evaluation.opponents`, which reads the league's config.
+A *team policy* maps the env's current TensorDict (``[K]`` worlds) to an action for
+**every** agent of every group, ``{group: [K, n_g, ...]}``; the match loop keeps those
+of the agents on its side. One batched call for both teams keeps every policy free of
+team bookkeeping. This module reads only the env layer, so that the league
+(:mod:`rlhc.training.league`) can use the built-in teams without the checkpoint machinery.
 """
 
 from __future__ import annotations
@@ -48,14 +44,10 @@ class RandomPolicy:
 
 class ScriptedPolicy:
     """The game's scripted team (:attr:`GameSpec.scripted <rlhc.envs.registry.GameSpec>`),
-    batched over worlds (deterministic).
-
-    The scripted team reads the env's game (its observations or its full state), which
-    is in the state the given TensorDict describes: the TensorDict itself is not read.
+    batched over worlds (deterministic); it reads the env's game, not the TensorDict.
 
     Raises:
-        ValueError: the env's game is not registered (the message lists the registered
-            games).
+        ValueError: the env's game is not registered.
 
     Examples:
         >>> from rlhc.envs import make_env

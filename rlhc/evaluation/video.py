@@ -1,9 +1,8 @@
 """A match rendered to a GIF (Pillow) or an MP4 (imageio + ffmpeg), with a score overlay.
 
-Frames come from the game's own ``render(world)`` (the same ``rgb_array`` frames as the
-PettingZoo env); below each frame a strip shows who plays which side, the score and
-the step. The match is played by :func:`~rlhc.evaluation.matches.play_matches` on a
-one-world env, so a video shows exactly what an evaluation plays.
+Frames come from the game's own ``render(world)``, with a strip below each: who plays
+which side, the score and the step. The match is played by
+:func:`~rlhc.evaluation.matches.play_matches`, so a video shows what an evaluation plays.
 """
 
 from __future__ import annotations
@@ -52,11 +51,8 @@ def overlay(frame: np.ndarray, left: str, right: str, step: int) -> np.ndarray:
 
 
 def write_video(frames: list[np.ndarray], path: str | os.PathLike[str], fps: int) -> Path:
-    """Write ``frames`` (``uint8 [H, W, 3]``) as a GIF or MP4 chosen by the suffix.
-
-    Raises:
-        ValueError: an unsupported suffix, or no frames.
-    """
+    """Write ``frames`` (``uint8 [H, W, 3]``) as a GIF or MP4 chosen by the suffix
+    (:class:`ValueError` for another suffix, or no frames)."""
     target = Path(path)
     suffix = target.suffix.lower()
     if suffix not in FORMATS:
@@ -95,20 +91,16 @@ def record_match(
     deterministic: bool = True,
     env_options: dict[str, Any] | None = None,
 ) -> tuple[Path, MatchResult, int]:
-    """Play one match and write its video.
-
-    The match is cut after ``max_frames - 1`` steps (a draw if still undecided), so the
-    video has ``1 + match length`` frames, at most ``max_frames``.
+    """Play one match and write its video, of at most ``max_frames`` frames (the match is
+    cut after ``max_frames - 1`` steps, a draw if still undecided).
 
     Args:
-        env_name: a registered game (:func:`~rlhc.envs.registry.games`), e.g. ``"tennis"``.
+        env_name: a registered game, e.g. ``"tennis"``.
         home: a player spec (``random``, ``scripted`` or a checkpoint path); ``away`` likewise.
         path: the ``.gif`` or ``.mp4`` file to write.
         home_side: the team (0 or 1) the home player plays.
-        points_to_win: match rule override (see :func:`~rlhc.evaluation.matches.default_rules`).
-        max_frames: the longest video, in frames.
+        points_to_win: match rule override (:func:`~rlhc.evaluation.matches.default_rules`).
         fps: frames per second (``None``: the game's ``render_fps``).
-        seed: the game's seed.
         deterministic: mode actions rather than samples.
         env_options: game options (e.g. ``max_cycles``).
 
@@ -169,10 +161,8 @@ def file_label(spec: str) -> str:
 def _label(spec: str) -> str:
     """A short name for the strip: a built-in's name, else the run or file name."""
     path = Path(spec)
-    if path.name == "latest.pt" or path.suffix == ".pt":
-        return (
-            f"{path.parent.parent.name}/{path.stem}"
-            if path.parent.name == "checkpoints"
-            else path.stem
-        )
-    return path.name
+    if path.suffix != ".pt":
+        return path.name
+    return (
+        f"{path.parent.parent.name}/{path.stem}" if path.parent.name == "checkpoints" else path.stem
+    )

@@ -6,16 +6,13 @@
 | the same, ``action_dist=tanh_normal`` | loc, scale (``NormalParamExtractor``; the scale is ``cfg.initial_action_scale`` for a zero output) | :class:`PreTanhNormal` over the pre-tanh value ``u``, stored as ``(g, "action_pretanh")``; the action is ``u`` squashed into the bounds (:class:`Squash`) |
 | ``Categorical`` ``[..., n_g]`` (soccer) | logits | ``torch.distributions.Categorical`` (integer actions, as the spec) |
 
-Every actor reads ``(g, "observation")``, or ``(g, "manager_observation")`` with
-``cfg.actor_view="manager"`` (:func:`actor_observation_key`), and writes ``(g, "action")``
-and its log-probability ``(g, "action_log_prob")`` (``tanh_normal``: that of its
-pre-tanh draw, ``(g, "action_pretanh_log_prob")``, the one the loss scores).
+Every actor reads :func:`actor_observation_key` and writes ``(g, "action")`` and its
+log-probability (``tanh_normal``: that of its pre-tanh draw, which the loss scores).
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import torch
 from tensordict.nn import (
@@ -68,15 +65,11 @@ def _scale_head(mlp: GroupMLP, factor: float) -> GroupMLP:
 class PreTanhNormal(IndependentNormal):
     """The Normal of a ``TanhNormal`` action's pre-tanh value ``u``, scored as drawn.
 
-    ``tanh_normal`` stores ``u`` next to the squashed action, and PPO's ratio
-    ``pi'(a) / pi(a)`` equals ``N'(u) / N(u)``: the tanh's Jacobian is the same factor
-    in both and cancels. (TorchRL's ``TanhNormal`` rebuilds ``u`` as ``atanh(a)``,
-    which float32 cannot once ``|u| > ~9``: every such action is ``+-1``.)
-
-    The entropy is that of the squashed action, as the bonus should see it: the
-    Normal's closed form plus a one-sample (reparametrised) estimate of
-    ``E[log(1 - tanh(u)^2)]`` per dimension, so that saturating costs entropy as it
-    does for a ``TanhNormal``; in units where the bounds are ``+-1``.
+    PPO's ratio ``pi'(a) / pi(a)`` equals ``N'(u) / N(u)`` (the tanh's Jacobian cancels),
+    and ``u`` is stored next to the action, where TorchRL's ``TanhNormal`` rebuilds it as
+    ``atanh(a)``, which float32 cannot once ``|u| > ~9``. The entropy is the squashed
+    action's: the Normal's closed form plus a one-sample estimate of
+    ``E[log(1 - tanh(u)^2)]`` per dimension, so that saturating costs entropy.
 
     Examples:
         >>> import torch
@@ -134,10 +127,8 @@ class _Rescale(nn.Module):
         return tuple(param / self.divisor for param in params)
 
 
-def _continuous_head(
-    n_inputs: int, size: int, n_agents: int, cfg: NetworkConfig
-) -> tuple[nn.Module, type, dict[str, Any]]:
-    """The network writing (loc, scale), the distribution class and its fixed kwargs."""
+def _continuous_head(n_inputs: int, size: int, n_agents: int, cfg: NetworkConfig) -> nn.Module:
+    """The network writing the (loc, scale) of ``cfg.action_dist``."""
     if cfg.action_dist == "gaussian":
         mlp = _scale_head(group_mlp(n_inputs, size, n_agents, cfg), cfg.head_init_scale)
         scale = AddStateIndependentNormalScale(
@@ -146,11 +137,11 @@ def _continuous_head(
         head: list[nn.Module] = [mlp, scale]
         if cfg.pre_clip_range != 1.0:
             head.append(_Rescale(cfg.pre_clip_range))
-        return nn.Sequential(*head), IndependentNormal, {}
+        return nn.Sequential(*head)
     # biased_softplus_b maps a zero output to scale b: the initial exploration noise.
     mlp = _scale_head(group_mlp(n_inputs, 2 * size, n_agents, cfg), cfg.head_init_scale)
     extractor = NormalParamExtractor(scale_mapping=f"biased_softplus_{cfg.initial_action_scale}")
-    return nn.Sequential(mlp, extractor), PreTanhNormal, {}
+    return nn.Sequential(mlp, extractor)
 
 
 def actor_observation_key(group: str, cfg: NetworkConfig) -> tuple[str, str]:
@@ -175,11 +166,9 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModul
         cfg: the MLP shape and the policy's parametrisation.
 
     Returns:
-        A ``ProbabilisticActor`` reading :func:`actor_observation_key` and writing
-        ``(group, "action")`` and ``(group, "action_log_prob")``; for
-        ``tanh_normal`` a ``TensorDictSequential`` of the ``ProbabilisticActor``
-        of the pre-tanh value (``(group, "action_pretanh")`` and its log-probability:
-        :func:`scored_policy`) and the :class:`Squash` writing ``(group, "action")``.
+        A ``ProbabilisticActor`` (module table); for ``tanh_normal`` a
+        ``TensorDictSequential`` of the one drawing the pre-tanh value
+        (:func:`scored_policy`) and the :class:`Squash` writing ``(group, "action")``.
 
     Raises:
         TypeError: the action spec is neither ``Bounded`` nor ``Categorical``.
@@ -205,11 +194,12 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModul
     out_spec = Composite({action_key: spec}, shape=env.full_action_spec.shape)
     if isinstance(spec, Bounded):
         size = int(spec.shape[-1])
-        net, distribution, kwargs = _continuous_head(n_inputs, size, n_agents, cfg)
         params = TensorDictModule(
-            net, in_keys=[observation_key], out_keys=[(group, LOC), (group, SCALE)]
+            _continuous_head(n_inputs, size, n_agents, cfg),
+            in_keys=[observation_key],
+            out_keys=[(group, LOC), (group, SCALE)],
         )
-        if distribution is PreTanhNormal:
+        if cfg.action_dist != "gaussian":
             draw = ProbabilisticActor(
                 params,
                 in_keys=[(group, LOC), (group, SCALE)],
@@ -230,8 +220,7 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModul
             in_keys=[(group, LOC), (group, SCALE)],
             out_keys=[action_key],
             spec=out_spec,
-            distribution_class=distribution,
-            distribution_kwargs=kwargs,
+            distribution_class=IndependentNormal,
             return_log_prob=True,
         )
     if isinstance(spec, Categorical):

@@ -12,21 +12,13 @@ from rlhc.modules.schemas import NetworkConfig
 class GroupMLP(nn.Module):
     """TorchRL's ``MLP`` applied to every agent of a group with the same weights.
 
-    What ``MultiAgentMLP(centralized=False, share_params=True)`` computes, and the same
-    parameters under the same names (``params.0.weight``, ...), so that checkpoints of
-    either load into the other; but called directly, where ``MultiAgentMLP`` swaps its
-    parameters into a stateless copy of the network (``to_module``) on every call: on a
-    soccer minibatch through one 2 x 256 network, 18 % more time for the forward and 14 %
-    for forward and backward (benchmarks/README, "Three more cuts").
+    What ``MultiAgentMLP(centralized=False, share_params=True)`` computes, with the same
+    parameter names (``params.0.weight``, ...), so that checkpoints of either load into
+    the other; but faster, called directly, without ``MultiAgentMLP``'s swap of its
+    parameters into a stateless copy of the network on every call.
 
-    Args:
-        n_inputs: per-agent input size.
-        n_outputs: per-agent output size.
-        n_agents: agents in the group (checked against the input's agent dim).
-        depth: hidden layers.
-        num_cells: width of each hidden layer.
-        activation_class: the hidden layers' activation.
-        activate_last_layer: also activate the output layer (a trunk).
+    ``n_inputs`` and ``n_outputs`` are per agent; the input's agent dim is checked
+    against ``n_agents``.
 
     Examples:
         >>> mlp = GroupMLP(8, 3, 2, depth=1, num_cells=16, activation_class=nn.Tanh)
@@ -74,19 +66,8 @@ class GroupMLP(nn.Module):
 def group_mlp(n_inputs: int, n_outputs: int, n_agents: int, cfg: NetworkConfig) -> GroupMLP:
     """One MLP applied to every agent of a group with the same weights.
 
-    Shared weights are symmetric self-play (both teams, all agents of a group share a
-    network, each agent seeing the world in its own team's frame); each agent's input
-    is its own. Batching the agents into one matmul is also what makes a PPO update
-    about twice as fast as a loop over agents on a 2-core CPU.
-
-    Args:
-        n_inputs: per-agent input size.
-        n_outputs: per-agent output size.
-        n_agents: agents in the group.
-        cfg: depth, width and activation.
-
-    Returns:
-        A :class:`GroupMLP` mapping ``[*B, n_agents, n_inputs]`` to ``[*B, n_agents, n_outputs]``.
+    Shared weights are symmetric self-play (each agent sees the world in its own team's
+    frame), and one matmul for all agents makes an update about twice as fast as a loop.
     """
     return GroupMLP(
         n_inputs,

@@ -1,8 +1,6 @@
-"""The network schema: the training config's ``model`` section extends it.
-
-:class:`rlhc.config.train_schema.ModelConfig` is this schema with the shape left to a preset, so the
-networks and the config share one definition of every network setting (and of its
-check: :meth:`NetworkConfig.__post_init__`).
+"""The network schema, which the training config's ``model`` section extends
+(:class:`rlhc.config.train_schema.ModelConfig`): one definition and one check of every
+network setting.
 """
 
 from __future__ import annotations
@@ -25,27 +23,13 @@ ACTIVATIONS: dict[str, type[nn.Module]] = {
     "silu": nn.SiLU,
 }
 
-#: Policy parametrisations of continuous actions (``model.action_dist``); discrete
-#: actions are always a ``Categorical`` over the network's logits.
-#:
-#: - ``gaussian`` (default): the policy of ML-Agents 0.5, the trainer the paper used. A
-#:   Normal whose log scale is a learned parameter per action dimension, independent of
-#:   the state; no squashing: the env clips the sample to the bounds, the stored action
-#:   is the sample itself (scored exactly) and the entropy is analytic. ML-Agents draws
-#:   ``u ~ N(mu, sigma)`` with ``sigma = 1`` at first and plays ``clip(u, -3, 3) / 3``:
-#:   here ``pre_clip_range=3`` (the same distribution in action units: ``loc = mu / 3``,
-#:   ``scale = sigma / 3``).
-#: - ``tanh_normal``: a Normal with a per-state scale whose sample ``u`` is squashed into
-#:   the bounds by tanh. ``u`` is stored next to the action and scored by the loss, so
-#:   PPO's ratio is exact at any saturation (the tanh's Jacobian cancels in it); the
-#:   entropy is the Normal's closed form plus a one-sample estimate of the squashing's
-#:   log-Jacobian.
+#: Policy parametrisations of continuous actions (``model.action_dist``; discrete actions
+#: are a ``Categorical`` over logits): ``gaussian``, ML-Agents 0.5's state-free Gaussian,
+#: unsquashed; ``tanh_normal``, a tanh-squashed Normal (:mod:`rlhc.modules.actors`).
 ACTION_DISTRIBUTIONS: tuple[str, ...] = ("gaussian", "tanh_normal")
 
-#: What the actor reads (``model.actor_view``): ``worker``, the worker observation
-#: ``(g, "observation")`` (the paper's policy); ``manager``, the manager observation
-#: ``(g, "manager_observation")``, which holds the worker's and more (tennis: the ball
-#: relative to the racket, a difference the worker view leaves the network to learn).
+#: What the actor reads (``model.actor_view``): the worker observation (the paper's
+#: policy) or the manager observation, which holds the worker's and more.
 ACTOR_VIEWS: tuple[str, ...] = ("worker", "manager")
 
 
@@ -53,32 +37,22 @@ ACTOR_VIEWS: tuple[str, ...] = ("worker", "manager")
 class NetworkConfig:
     """Shape of every MLP (actor, worker critic, manager critic) of one group.
 
-    Plain types only, so that Hydra can validate yaml files against it. The paper's
-    defaults (Table 3) are 2 x 128 for tennis and 2 x 256 for soccer; tanh is the usual
-    PPO choice for small MLPs and what TorchRL's multi-agent examples use.
+    Plain types only, so that Hydra can validate yaml files against it.
 
     Attributes:
         num_layers: hidden layers per MLP (``>= 1``).
         hidden_size: units per hidden layer (``>= 1``).
         activation: one of :data:`ACTIVATIONS` (``silu`` is ML-Agents 0.5's swish).
         action_dist: continuous actions: the policy's parametrisation, one of
-            :data:`ACTION_DISTRIBUTIONS`. Ignored by discrete actions.
-        initial_action_scale: continuous actions: the policy's scale at initialisation
-            (``> 0``): for ``gaussian`` the initial value of the learned scale in units of
-            ``pre_clip_range`` (ML-Agents 0.5: 1), for ``tanh_normal`` the pre-tanh scale
-            of a zero network output.
-        head_init_scale: continuous actions: the policy head's initial weights are
-            multiplied by this (``> 0``; ML-Agents 0.5 initialises its mean head at
-            0.01, so every action starts near 0).
-        pre_clip_range: ``gaussian`` only: the network's mean and
-            ``initial_action_scale`` are in units where the action bounds are
-            ``±pre_clip_range``; the action is the sample divided by it (``> 0``;
-            ML-Agents 0.5: 3, so its initial scale of 1 is a third of the action range;
-            1: the network works in action units).
-        actor_view: the observation the actor reads, one of :data:`ACTOR_VIEWS`
-            (``worker``: the paper's; ``manager``: the manager critic's view, in tennis
-            the worker's 8 values and the ball relative to the racket). The critics
-            keep theirs (``critic.manager_view``).
+            :data:`ACTION_DISTRIBUTIONS`.
+        initial_action_scale: continuous actions: the policy's initial scale (``gaussian``:
+            in units of ``pre_clip_range``; ``tanh_normal``: pre-tanh, at a zero output).
+        head_init_scale: continuous actions: a factor on the policy head's initial weights,
+            so that every action starts near 0 (ML-Agents 0.5: 0.01).
+        pre_clip_range: ``gaussian`` only: the action bounds in the network's units, the
+            action being the sample divided by it (ML-Agents 0.5: 3).
+        actor_view: the observation the actor reads, one of :data:`ACTOR_VIEWS` (the
+            critics keep theirs).
 
     Examples:
         >>> from rlhc.modules import NetworkConfig
@@ -96,8 +70,7 @@ class NetworkConfig:
     actor_view: str = "worker"
 
     def __post_init__(self) -> None:
-        # The one check of these settings (rlhc.config.validation checks the rest of a config).
-        # A value still MISSING ("???": a schema filled in later by Hydra) is not checked.
+        # The one check of these settings; a value still MISSING (filled in by Hydra) is not.
         if _given(self.num_layers) and self.num_layers < 1:
             raise allowed("model.num_layers", self.num_layers, "an integer >= 1")
         if _given(self.hidden_size) and self.hidden_size < 1:

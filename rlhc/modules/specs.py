@@ -1,8 +1,6 @@
-"""Reading a group's sizes from TorchRL specs.
-
-The factories of :mod:`rlhc.modules.actors` and :mod:`rlhc.modules.critics` take any
-object with ``full_observation_spec`` and ``full_action_spec`` (a TorchRL ``EnvBase``
-has both), so that networks can be built, and tested, without a simulator.
+"""Reading a group's sizes from TorchRL specs: the network factories take anything with
+``full_observation_spec`` and ``full_action_spec``, so that networks can be built, and
+tested, without a simulator.
 """
 
 from __future__ import annotations
@@ -47,16 +45,7 @@ def _leaf_spec(spec: Composite, key: tuple[str, str], what: str) -> TensorSpec:
 
 
 def observation_size(env: HasSpecs, group: str, *, manager: bool = False) -> tuple[int, int]:
-    """``(n_agents, d)`` of the worker (or manager) observation of ``group``.
-
-    Args:
-        env: an env or :class:`EnvSpecs`.
-        group: the agent group, e.g. ``"racket"``.
-        manager: read ``manager_observation`` instead of ``observation``.
-
-    Returns:
-        The number of agents ``n_g`` and the feature size ``d_w`` (or ``d_m``).
-    """
+    """``(n_g, d_w)`` of ``group``'s worker observation (``manager``: ``(n_g, d_m)``)."""
     leaf = MANAGER_OBSERVATION if manager else OBSERVATION
     spec = _leaf_spec(env.full_observation_spec, (group, leaf), "observation")
     if len(spec.shape) < 2:

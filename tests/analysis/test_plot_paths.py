@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from rlhc import plot
-from rlhc.analysis.curves import find_runs, split_run_paths
+from rlhc.analysis.curves import load_runs, split_run_paths
 
 ROOT = Path(__file__).resolve().parents[2]
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -50,9 +50,9 @@ def test_split_run_paths_separates_runs_from_other_paths(sweep: Path) -> None:
     assert split_run_paths([sweep / "0_seed=0" / "metrics.csv"]) == ([sweep / "0_seed=0"], [])
 
 
-def test_find_runs_stays_strict_for_library_callers(sweep: Path) -> None:
+def test_load_runs_stays_strict_for_library_callers(sweep: Path) -> None:
     with pytest.raises(FileNotFoundError, match=r"multirun\.yaml"):
-        find_runs([sweep / "0_seed=0", sweep / "multirun.yaml"])
+        load_runs([sweep / "0_seed=0", sweep / "multirun.yaml"])
 
 
 def test_a_glob_over_a_multirun_plots_with_one_warning_line(

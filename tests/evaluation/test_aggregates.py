@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from rlhc.evaluation.stats import (
-    iqm,
     iqm_interval,
     probability_of_improvement,
     separation_p_value,
@@ -15,10 +14,10 @@ from rlhc.evaluation.stats import (
 
 def test_iqm_is_the_mean_of_the_middle_half() -> None:
     values = np.arange(8.0)  # the middle half: 2, 3, 4, 5
-    assert iqm(values) == 3.5
-    assert iqm([1.0, 1.0, 1.0, 1000.0]) == 1.0  # an outlying seed does not move it
-    with pytest.raises(ValueError, match="empty"):
-        iqm([])
+    assert iqm_interval([values]).value == 3.5
+    assert iqm_interval([[1.0, 1.0, 1.0, 1000.0]]).value == 1.0  # an outlier does not move it
+    with pytest.raises(ValueError, match="at least one score"):
+        iqm_interval([[]])
 
 
 def test_the_iqm_interval_is_reproducible_and_narrows_with_seeds() -> None:

@@ -23,8 +23,8 @@ from rlhc.evaluation.diagnostics.__main__ import main
 from rlhc.evaluation.diagnostics.soccer import (
     ACTION_NAMES,
     record_play,
-    scripted_diagnostics,
     soccer_diagnostics,
+    summarise_play,
 )
 from rlhc.evaluation.diagnostics.soccer_events import (
     SHOT_OUTCOMES,
@@ -182,7 +182,11 @@ def test_touches_agree_with_pymunk_contacts() -> None:
 
 
 def test_the_scripted_team_shoots_alike_on_both_sides() -> None:
-    result = scripted_diagnostics(worlds=8, decisions=300, seed=0)["scripted_vs_scripted"]
+    env = make_env("soccer", num_envs=8, seed=0)
+    scripted = ScriptedPolicy(env)
+    record = record_play(env, scripted, scripted, torch.zeros(8, dtype=torch.int64), 300)
+    sides = {"team_0": [np.zeros(8, dtype=np.int64)], "team_1": [np.ones(8, dtype=np.int64)]}
+    result = summarise_play(record, env.game.options, sides)
     teams = result["team_0"], result["team_1"]
     for team in teams:
         assert team["shots"] > 0 and team["shots_on_target"] > 0

@@ -2,8 +2,8 @@
 
 | module | game | measures |
 |---|---|---|
-| :mod:`~rlhc.evaluation.diagnostics.tennis` | tennis | hits per point (sampled / mode), the policy's noise near the ball and elsewhere, saturated actions, moves toward the ball |
-| :mod:`~rlhc.evaluation.diagnostics.soccer` | soccer | against the scripted team and in self-play, per team: goals, shots and shots on target per 1,000 decisions and how the shots on target end, the ball's time in the opponents' half, striker-to-ball and goalie-to-goal distances, touches per episode, action shares |
+| :mod:`~rlhc.evaluation.diagnostics.tennis` | tennis | hits per point, the policy's noise near the ball and elsewhere, saturated actions, moves toward the ball |
+| :mod:`~rlhc.evaluation.diagnostics.soccer` | soccer | against the scripted team and in self-play: goals, shots and how they end, where the ball and players are, touches, action shares |
 
 ``python -m rlhc.evaluation.diagnostics <run dir or .pt>`` prints the diagnostics of a
 team's game as JSON (:func:`diagnose` picks them by the team's game).
@@ -27,11 +27,8 @@ DIAGNOSTICS: dict[str, Callable[..., dict[str, Any]]] = {
 def diagnose(
     state: Mapping[str, Any], *, worlds: int = 32, decisions: int = 1000, seed: int = 0
 ) -> dict[str, Any]:
-    """The play diagnostics of a loaded team (:func:`rlhc.storage.final_team.load_team`).
-
-    Raises:
-        ValueError: no diagnostics for the team's game (the message lists those there are).
-    """
+    """The play diagnostics of a loaded team (:func:`rlhc.storage.final_team.load_team`);
+    :class:`ValueError` if there are none for its game."""
     game = state["env"]
     if game not in DIAGNOSTICS:
         raise ValueError(

@@ -1,48 +1,25 @@
 """Why a soccer team draws: what it does against the scripted team, beyond who wins.
 
 A trained team plays the game's scripted team with mode actions, as in matches, on
-fresh pitches: half of them with the trained team on each side, each agent's action
-taken from its team's policy (:func:`rlhc.evaluation.matches.route_actions`); then it
-plays itself (self-play, both sides the same policy). Every decision is recorded from
-the game's public state and measured by
-:func:`~rlhc.evaluation.diagnostics.soccer_events.count_events` (whose docstring
-defines touches, shots and their outcomes). Per team:
+fresh pitches, half of them with the trained team on each side; then it plays itself.
+Every decision is recorded from the game's state and measured by
+:func:`~rlhc.evaluation.diagnostics.soccer_events.count_events` (whose docstring defines
+touches, shots and their outcomes). Per team:
 
-======================================= ================================================
-key                                     what
-======================================= ================================================
-``goals_per_1000``                      goals scored per 1,000 pitch-decisions
-``shots_per_1000``                      shots (by striker or goalie) per 1,000
-                                        pitch-decisions
-``goalie_shot_share``                   the goalie's share of those shots
-``shots_on_target_per_1000``            shots on target per 1,000 pitch-decisions
-``on_target_outcomes``                  share of the shots on target ending in each of
-                                        :data:`~rlhc.evaluation.diagnostics.soccer_events.SHOT_OUTCOMES`
-``ball_in_opponent_half``               share of decisions with the ball's centre in the
-                                        opponents' half
-``striker_ball_distance``               the striker's mean centre distance to the ball (m)
-``goalie_goal_distance``                the goalie's mean distance from the centre of its
-                                        own goal line (m)
-``striker_touches_per_episode``         touches of the ball per episode, by the striker;
-                                        ``goalie_touches_per_episode`` likewise
-``striker_actions``, ``goalie_actions`` share of the decisions given to each action
-``goals``, ``shots``, ``shots_on_target`` the raw counts
-======================================= ================================================
+| key | what |
+|---|---|
+| ``goals_per_1000``, ``shots_per_1000``, ``shots_on_target_per_1000`` | per 1,000 pitch-decisions (shots by striker or goalie) |
+| ``goalie_shot_share`` | the goalie's share of the shots |
+| ``on_target_outcomes`` | share of the shots on target ending in each of :data:`~rlhc.evaluation.diagnostics.soccer_events.SHOT_OUTCOMES` |
+| ``ball_in_opponent_half`` | share of decisions with the ball in the opponents' half |
+| ``striker_ball_distance``, ``goalie_goal_distance`` | mean distance of the striker to the ball, of the goalie to its own goal (m) |
+| ``striker_touches_per_episode``, ``goalie_touches_per_episode`` | touches of the ball per episode |
+| ``striker_actions``, ``goalie_actions`` | share of the decisions given to each action |
+| ``goals``, ``shots``, ``shots_on_target`` | the raw counts |
 
-and per play: ``episodes`` (started), and over the episodes that started at least
-``max_cycles`` decisions before the end of the play (so that every one of them ended
-within it, long ones as well as short ones): ``complete_episodes`` (how many),
-``goal_share`` (the share that ended by a goal; the others were truncated: a match's
-draw) and ``episode_length`` (their mean length, decisions). The
-against-scripted play is ``result["vs_scripted"]`` with teams ``trained`` and
-``scripted``; self-play is ``result["self_play"]`` with the two sides pooled into
-``trained``. ``python -m rlhc.evaluation.diagnostics <run dir or .pt>`` prints it all
-as JSON.
-
-Examples:
-    >>> result = scripted_diagnostics(worlds=2, decisions=20, seed=0)
-    >>> sorted(result["scripted_vs_scripted"])
-    ['complete_episodes', 'episode_length', 'episodes', 'goal_share', 'team_0', 'team_1']
+and per play: ``episodes`` (started) and, over :func:`complete_episodes`, their number,
+``goal_share`` (the others were truncated: a draw) and ``episode_length``. Self-play
+pools both sides into team ``trained``.
 """
 
 from __future__ import annotations
@@ -65,10 +42,7 @@ from rlhc.evaluation.matches import route_actions
 from rlhc.evaluation.policies import observation_options, restore_policy
 from rlhc.evaluation.teams import ScriptedPolicy, TeamPolicy
 
-ACTION_NAMES: dict[str, tuple[str, ...]] = {
-    "striker": STRIKER_ACTIONS,
-    "goalie": GOALIE_ACTIONS,
-}
+ACTION_NAMES: dict[str, tuple[str, ...]] = {"striker": STRIKER_ACTIONS, "goalie": GOALIE_ACTIONS}
 
 
 def _soccer_game(env: BatchedGameEnv) -> SoccerGame:
@@ -84,19 +58,15 @@ def record_play(
     home_side: torch.Tensor,
     decisions: int,
 ) -> PlayRecord:
-    """Play ``decisions`` decisions of every pitch of ``env`` and record them.
+    """Play ``decisions`` decisions of every pitch of ``env`` with mode actions; record them.
 
-    A pitch whose episode ends (goal or truncation) kicks off again at once. The
-    policies act with their mode (deterministic) actions, as in matches.
+    A pitch whose episode ends kicks off again at once.
 
     Args:
-        env: a soccer env (:func:`rlhc.envs.make_env`), ``K`` pitches; it is reset first.
+        env: a soccer env of ``K`` pitches; it is reset first.
         home: the team policy of the home side; ``away`` likewise (may be ``home``).
         home_side: ``int [K]``, the team (0 or 1) ``home`` plays in each pitch.
         decisions: decisions per pitch.
-
-    Returns:
-        The record :func:`~rlhc.evaluation.diagnostics.soccer_events.count_events` reads.
 
     Raises:
         ValueError: ``env`` is not a soccer env, or ``decisions < 1``.
@@ -139,15 +109,9 @@ def summarise_play(
 ) -> dict[str, Any]:
     """The per-team table of the module docstring for a recorded play.
 
-    Args:
-        record: the play.
-        options: the game's :class:`~rlhc.envs.soccer.options.SoccerOptions`.
-        teams: name -> the team (0 or 1) that name played in each pitch, ``int [K]``
-            each; several arrays pool their columns (self-play: both sides).
-
-    Returns:
-        ``{name: metrics}`` for every name, plus ``episodes``, ``complete_episodes``,
-        ``goal_share`` and ``episode_length`` of the play (module docstring).
+    ``teams`` maps a name to the team (0 or 1) it played in each pitch, ``int [K]``;
+    several arrays pool their columns (self-play: both sides). Returns ``{name: metrics}``
+    for every name, and the play's own metrics.
     """
     counts = count_events(record, options)
     worlds = np.arange(record.scoring_team.shape[1])
@@ -196,11 +160,8 @@ def summarise_play(
 
 def complete_episodes(record: PlayRecord, max_cycles: int) -> tuple[np.ndarray, np.ndarray]:
     """Length and goal flag of every episode that started at least ``max_cycles``
-    decisions before the end of ``record``, hence ended within it.
-
-    Counting only the episodes that ended within a play of fixed length would favour
-    short ones (goals); an episode that starts early enough ends within it however it
-    ends.
+    decisions before the end of ``record``, hence ended within it however it ended
+    (counting the episodes that ended within the play would favour short ones: goals).
 
     Examples:
         >>> ended = np.array([[0], [1], [0], [0], [0], [1], [0], [1], [0], [0]], dtype=bool)
@@ -227,18 +188,12 @@ def complete_episodes(record: PlayRecord, max_cycles: int) -> tuple[np.ndarray, 
     return np.array(lengths, dtype=np.int64), np.array(goals, dtype=bool)
 
 
-def _sides(worlds: int) -> np.ndarray:
-    """``int64 [K]``: home's team per pitch, alternating (half the pitches on each side)."""
-    return np.arange(worlds, dtype=np.int64) % 2
-
-
 def soccer_diagnostics(
     state: Mapping[str, Any],
     *,
     worlds: int = 32,
     decisions: int = 1000,
     seed: int = 0,
-    self_play: bool = True,
 ) -> dict[str, Any]:
     """The table of the module docstring for a trained soccer team.
 
@@ -247,11 +202,9 @@ def soccer_diagnostics(
         worlds: pitches played at once (the trained team on team ``k % 2`` of pitch ``k``).
         decisions: decisions per pitch, for each play (against scripted, self-play).
         seed: the pitches' seed (the same for both plays); torch is seeded with it too.
-        self_play: also play the team against itself (twice the time).
 
     Returns:
-        A JSON-ready dict: ``worlds``, ``decisions``, ``seed``, ``vs_scripted`` and,
-        with ``self_play``, ``self_play``.
+        A JSON-ready dict: ``worlds``, ``decisions``, ``seed``, ``vs_scripted``, ``self_play``.
 
     Raises:
         ValueError: ``state`` is not a soccer team.
@@ -260,8 +213,8 @@ def soccer_diagnostics(
         raise ValueError(f"soccer_diagnostics needs a soccer team, got one of {state['env']!r}")
     options = observation_options(state)
     result: dict[str, Any] = {"worlds": worlds, "decisions": decisions, "seed": seed}
-    sides = _sides(worlds)
-    for play in ("vs_scripted", "self_play") if self_play else ("vs_scripted",):
+    sides = np.arange(worlds, dtype=np.int64) % 2  # the trained team's, alternating
+    for play in ("vs_scripted", "self_play"):
         torch.manual_seed(seed)
         env = make_env("soccer", num_envs=worlds, seed=seed, **options)
         assert isinstance(env, BatchedGameEnv)
@@ -279,38 +232,3 @@ def soccer_diagnostics(
         )
         result[play] = summarise_play(record, game_options, teams)
     return result
-
-
-def scripted_diagnostics(
-    *, worlds: int = 32, decisions: int = 1000, seed: int = 0, **game_options: Any
-) -> dict[str, Any]:
-    """The scripted team against itself, measured as :func:`soccer_diagnostics` measures
-    a trained team: the reference of what a team that shoots does.
-
-    Args:
-        worlds: pitches played at once.
-        decisions: decisions per pitch.
-        seed: the pitches' seed.
-        **game_options: soccer options (:class:`~rlhc.envs.soccer.options.SoccerOptions`).
-
-    Returns:
-        ``worlds``, ``decisions``, ``seed`` and ``scripted_vs_scripted`` with teams
-        ``team_0`` and ``team_1`` (the play's sides).
-    """
-    env = make_env("soccer", num_envs=worlds, seed=seed, **game_options)
-    assert isinstance(env, BatchedGameEnv)
-    try:
-        scripted = ScriptedPolicy(env)
-        zeros = torch.zeros(worlds, dtype=torch.int64)
-        record = record_play(env, scripted, scripted, zeros, decisions)
-        options = _soccer_game(env).options
-    finally:
-        env.close()
-    everywhere = np.zeros(worlds, dtype=np.int64)
-    play = summarise_play(record, options, {"team_0": [everywhere], "team_1": [everywhere + 1]})
-    return {
-        "worlds": worlds,
-        "decisions": decisions,
-        "seed": seed,
-        "scripted_vs_scripted": play,
-    }

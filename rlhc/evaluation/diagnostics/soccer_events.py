@@ -1,40 +1,20 @@
 """What happened in a recorded soccer play, read from the game's states alone (numpy).
 
-A :class:`PlayRecord` holds :meth:`SoccerGame.state <rlhc.envs.soccer.game.SoccerGame.state>`
-before and after every decision of ``K`` pitches; :func:`count_events` turns it into
-per-team counts. Every team is measured in its own frame: it attacks ``+x`` and defends
-the goal line at ``x = -L/2`` (``L``: ``pitch_length``; team 1's frame is the pitch
-turned by 180°).
+A :class:`PlayRecord` holds the game's state before and after every decision of ``K``
+pitches; :func:`count_events` turns it into per-team counts, each team in its own frame:
+it attacks ``+x`` and defends the goal line at ``x = -L/2`` (``L``: ``pitch_length``).
 
-============================ ==========================================================
-event                        definition
-============================ ==========================================================
-in touch                     a player's centre within ``player_radius + ball_radius +``
-                             :data:`~rlhc.envs.soccer.controls.KICK_REACH` of the ball's
-                             (the reach within which the game lets a player kick)
-touch                        a player out of touch when a decision is taken and in touch
-                             once it is played
-release                      the end of a touch: the first decision after which the
-                             player is out of touch again, or the end of the episode
-shot                         a player's release (striker or goalie: trained goalies
-                             attack) after which the ball rolls towards the opponents'
-                             goal line fast enough to reach it, slowed by the game's drag
-                             only (``x + v_x dt d / (1 - d) >= L/2``, ``dt`` the frame,
-                             ``d`` the drag per frame), or a goal of its team scored
-                             during the touch
-shot on target               a shot whose straight line crosses the goal line within the
-                             mouth (``|y| <= goal_width / 2`` there), or such a goal
-outcome of a shot on target  the first of: ``goal`` (its team scores), ``saved`` (the
-                             opponents' goalie comes in touch), ``blocked`` (the
-                             opponents' striker does), ``retouched`` (its own team
-                             does), ``missed`` (the ball turns back, ``v_x <= 0``,
-                             untouched: post, wall, or a bounce off a player too quick
-                             to be seen in touch), ``unfinished`` (the episode is
-                             truncated or the record ends first)
-============================ ==========================================================
+| event | definition |
+|---|---|
+| in touch | a player's centre within ``player_radius + ball_radius +`` :data:`~rlhc.envs.soccer.controls.KICK_REACH` of the ball's (where the game lets a player kick) |
+| touch | a player out of touch when a decision is taken and in touch once it is played |
+| release | the end of a touch: the first decision after which the player is out of touch again, or the end of the episode |
+| shot | a player's release (striker or goalie) after which the ball rolls towards the opponents' goal line fast enough to reach it, slowed by the game's drag only (``x + v_x dt d / (1 - d) >= L/2``, ``dt`` the frame, ``d`` the drag per frame), or a goal of its team scored during the touch |
+| shot on target | a shot whose straight line crosses the goal line within the mouth (``abs(y) <= goal_width / 2``), or such a goal |
+| outcome of a shot on target | the first of: ``goal`` (its team scores), ``saved`` (the opponents' goalie comes in touch), ``blocked`` (the opponents' striker does), ``retouched`` (its own team does), ``missed`` (the ball turns back, ``v_x <= 0``, untouched), ``unfinished`` (the episode is truncated or the record ends first) |
 
-A bounce that begins and ends within one decision is not seen in touch (measured
-against pymunk's own contacts on scripted play in the tests: most touches are seen).
+A bounce that begins and ends within one decision is not seen in touch (the tests
+compare touches with pymunk's own contacts on scripted play: most are seen).
 
 Examples:
     >>> from rlhc.envs.soccer.options import SoccerOptions
@@ -116,11 +96,8 @@ def in_touch(states: np.ndarray, options: SoccerOptions) -> np.ndarray:
 
 
 def rolling_reach(speed: np.ndarray, options: SoccerOptions) -> np.ndarray:
-    """How far a ball rolling at ``speed`` (m/s) goes, slowed by the game's drag only.
-
-    The game keeps ``ball_drag`` of the ball's velocity every frame of ``step_seconds``,
-    so the ball covers ``v dt (d + d² + …) = v dt d / (1 - d)``.
-    """
+    """How far a ball rolling at ``speed`` (m/s) goes, slowed by the game's drag ``d`` per
+    frame ``dt`` only: ``v dt (d + d² + …) = v dt d / (1 - d)``."""
     drag = options.ball_drag
     if drag >= 1.0:
         return np.full(np.shape(speed), np.inf)
@@ -143,19 +120,13 @@ def shot_targets(
 
 
 def count_events(record: PlayRecord, options: SoccerOptions) -> dict[str, np.ndarray]:
-    """Per-pitch, per-team counts of a recorded play (module table).
-
-    Args:
-        record: the play.
-        options: the game's options (radii, pitch, drag).
+    """Per-pitch, per-team counts of a recorded play (module table) under the game's ``options``.
 
     Returns:
-        ``[K, 2]`` arrays (column = team): ``goals``, ``shots``, ``shots_on_target``,
-        ``goalie_shots`` (the goalie's share of ``shots``), ``on_target_<outcome>`` for
-        each of :data:`SHOT_OUTCOMES`, ``striker_touches``,
-        ``goalie_touches``, ``ball_in_opponent_half`` (decisions), ``striker_ball_distance``
-        and ``goalie_goal_distance`` (sums over decisions, metres); and ``[K]`` arrays
-        ``decisions`` and ``episodes`` (episodes with at least one decision).
+        ``[K, 2]`` arrays (column = team) of counts (``goals``, ``shots``, ``goalie_shots``,
+        ``on_target_<outcome>``, ``striker_touches``, …) and of sums over decisions
+        (``ball_in_opponent_half``, ``striker_ball_distance`` in metres, …); ``[K]``
+        arrays ``decisions`` and ``episodes``.
     """
     decisions, worlds = record.scoring_team.shape
     counts: dict[str, np.ndarray] = {

@@ -1,8 +1,7 @@
 """Why a tennis team does (not) rally: what its policy does near the ball.
 
-A trained team plays self-play (both sides the same policy, as in training) on fresh
-courts twice, once sampling its actions as in training and once with its mode actions
-as in matches, and reports:
+A trained team plays itself on fresh courts twice, sampling its actions as in training
+and with its mode actions as in matches, and reports:
 
 | key | what |
 |---|---|
@@ -15,13 +14,7 @@ as in matches, and reports:
 | ``ended`` / ``ended_mode`` | share of points that ended each way (:data:`~rlhc.envs.tennis.rules.POINT_ENDINGS`: the serve not touched, a ball not returned, out, net, wall), sampled / mode |
 
 The numbers are per decision of every racket, over ``worlds x decisions``
-racket-decisions per mode. ``python -m rlhc.evaluation.diagnostics <run dir or .pt>``
-prints them as JSON.
-
-Examples:
-    >>> from rlhc.evaluation.diagnostics.tennis import NEAR_BALL, ACTION_NAMES
-    >>> NEAR_BALL, ACTION_NAMES
-    (1.0, ('move', 'jump', 'tilt'))
+racket-decisions per mode.
 """
 
 from __future__ import annotations
@@ -46,28 +39,20 @@ ACTION_NAMES = ("move", "jump", "tilt")
 GROUP = "racket"
 
 
-class _RecordingPolicy:
-    """The restored actors as a rollout policy that also keeps each decision's scale."""
-
-    def __init__(self, restored: RestoredPolicy) -> None:
-        self.restored = restored
-
-    def __call__(self, tensordict: TensorDictBase) -> TensorDictBase:
-        out = self.restored.actors[GROUP](self.restored.inputs(GROUP, tensordict))
+def _play(
+    restored: RestoredPolicy, options: Mapping[str, Any], worlds: int, decisions: int, seed: int
+) -> TensorDictBase:
+    def policy(tensordict: TensorDictBase) -> TensorDictBase:
+        """The restored actors, also keeping each decision's scale."""
+        out = restored.actors[GROUP](restored.inputs(GROUP, tensordict))
         tensordict.set((GROUP, ACTION), out[GROUP, ACTION])
         tensordict.set((GROUP, SCALE), out[GROUP, SCALE].expand_as(out[GROUP, ACTION]))
         return tensordict
 
-
-def _play(
-    restored: RestoredPolicy, options: Mapping[str, Any], worlds: int, decisions: int, seed: int
-) -> TensorDictBase:
     env = make_env("tennis", num_envs=worlds, seed=seed, **options)
     try:
         with torch.no_grad():
-            return env.rollout(
-                decisions, policy=_RecordingPolicy(restored), break_when_any_done=False
-            )
+            return env.rollout(decisions, policy=policy, break_when_any_done=False)
     finally:
         env.close()
 
@@ -110,17 +95,10 @@ def tennis_diagnostics(
 ) -> dict[str, Any]:
     """The table of the module docstring for a trained tennis team.
 
-    Args:
-        state: a loaded checkpoint or final team (:func:`rlhc.storage.final_team.load_team`).
-        worlds: courts played at once.
-        decisions: decisions per court and mode.
-        seed: the courts' seed (the same for both modes); torch is seeded with it too.
-
-    Returns:
-        A JSON-ready dict; per-dimension entries are dicts keyed by :data:`ACTION_NAMES`.
-
-    Raises:
-        ValueError: ``state`` is not a tennis team.
+    ``state`` is a loaded team (:func:`rlhc.storage.final_team.load_team`), played on
+    ``worlds`` courts for ``decisions`` decisions per mode, courts and torch seeded with
+    ``seed``. Returns a JSON-ready dict (per-dimension entries keyed by
+    :data:`ACTION_NAMES`); :class:`ValueError` if ``state`` is not a tennis team.
     """
     if state["env"] != "tennis":
         raise ValueError(f"tennis_diagnostics needs a tennis team, got one of {state['env']!r}")
