@@ -88,8 +88,10 @@ class FusedValue(TensorDictModuleBase):
         weight: the manager's weight ``w`` in ``"weighted"`` fusion.
         manager_interval: consult the manager only where ``step_count % k == 0`` (the
             paper's temporal scaling); elsewhere ``V_hat = V_w``.
-        worker_value_key, manager_value_key, value_key, manager_selected_key: the
-            entries written.
+        worker_value_key: where ``V_w`` is written.
+        manager_value_key: where ``V_m`` is written.
+        value_key: where the fused ``V_hat`` is written.
+        manager_selected_key: where the share of ``V_hat`` taken from ``V_m`` is written.
         step_count_key: the episode step counter, read when ``manager_interval > 1``.
         manager_diagnostics: under ``"local"`` fusion, run the manager critic anyway
             (``V_hat`` does not read it); every other fusion runs it.
