@@ -113,14 +113,15 @@ class SafeVecNorm(Transform):
             ``data``.
         """
         batch = tuple(range(data.batch_dims))
-        for key in self._present(data):
-            if self.moments is None or ("loc", *_tuple(key)) not in self.moments.keys(True):
+        present = self._present(data)
+        for key in present:
+            if self.moments is None or self.moments.get(("count", *_tuple(key)), None) is None:
                 self._initialise(key, data.get(key), batch)
         if self.frozen or self.moments is None:
             return data
         n = data.numel()
         weight = 1 - self.decay**n
-        for key in self._present(data):
+        for key in present:
             value = data.get(key)
             seen = self.moments.get(("count", *_tuple(key))).add_(n)
             step = n / seen if self.decay == 1.0 else weight
