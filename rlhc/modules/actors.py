@@ -43,6 +43,11 @@ from rlhc.modules.schemas import NetworkConfig
 from rlhc.modules.specs import HasSpecs, action_spec, observation_size
 
 
+#: The distributions skip torch's argument checks: each costs a host sync per call (a
+#: collection step, a minibatch), and the game rejects a non-finite action on its own.
+_UNCHECKED = {"validate_args": False}
+
+
 def _per_agent_bound(bound: torch.Tensor, size: int, name: str) -> torch.Tensor:
     # A shared policy needs one bound per action dimension: the env may repeat it
     # over worlds and agents, but it must be the same everywhere.
@@ -206,6 +211,7 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModul
                 out_keys=[(group, PRE_TANH_ACTION)],
                 distribution_class=PreTanhNormal,
                 return_log_prob=True,
+            distribution_kwargs=_UNCHECKED,
             )
             squash = Squash(
                 _per_agent_bound(spec.space.low, size, "low"),
@@ -222,6 +228,7 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModul
             spec=out_spec,
             distribution_class=IndependentNormal,
             return_log_prob=True,
+            distribution_kwargs=_UNCHECKED,
         )
     if isinstance(spec, Categorical):
         logits = TensorDictModule(
@@ -236,6 +243,7 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModul
             spec=out_spec,
             distribution_class=torch.distributions.Categorical,
             return_log_prob=True,
+            distribution_kwargs=_UNCHECKED,
         )
     raise TypeError(
         f"action spec of group {group!r} is {type(spec).__name__}; "

@@ -11,7 +11,7 @@ selected).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import torch
 from tensordict import TensorDictBase
@@ -28,6 +28,7 @@ from torchrl.objectives.utils import distance_loss
 
 from rlhc.envs import keys
 from rlhc.modules.actors import scored_policy
+from rlhc.modules.policies import ActorParts, actor_parts, policy_distribution
 from rlhc.objectives.value import HierarchicalValueEstimator
 
 #: Output keys of :class:`HierarchicalPPOLoss` that carry gradient; sum these.
@@ -64,6 +65,15 @@ def explained_variance(target: Tensor, value: Tensor, weight: Tensor | None = No
 
             residual, spread = variance(target - value), variance(target)
         return 1.0 - residual / (spread + torch.finfo(target.dtype).eps)
+
+
+class LossTerms(NamedTuple):
+    """:meth:`HierarchicalPPOLoss.terms`: the loss's outputs, and the policy's per-sample
+    ``log(pi / pi_old)`` and entropy ``[*B, n_g, 1]`` (detached), for weighted diagnostics."""
+
+    values: dict[str, Tensor]
+    log_weight: Tensor
+    entropy: Tensor
 
 
 def _reduced(term: Tensor, reduction: str) -> Tensor:
@@ -181,6 +191,8 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         self.to(device)
         # The last loss_critic call's per-critic terms, for forward's diagnostics.
         self._critic_split: dict[str, Tensor] = {}
+        # The actor's network and distribution, for terms() (a tuple: not registered twice).
+        self._actor_parts: ActorParts = actor_parts(self.actor_network)
 
     @property
     def out_keys(self) -> list[str]:
@@ -255,6 +267,76 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         self._critic_split = {}
         return td_out
 
+    def terms(self, tensordict: TensorDictBase) -> LossTerms:
+        """What :meth:`forward` writes (but ``ESS``, ``max_ratio`` and ``mean_ratio``), from
+        one call of each network on the minibatch's tensors.
+
+        ``ClipPPOLoss.forward`` and :meth:`loss_critic`, operation for operation, without
+        their TensorDict work: the actor's network called on its observation tensor, its
+        distribution built once (:func:`~rlhc.modules.policies.policy_distribution`), the
+        critics' networks called on theirs. The values equal :meth:`forward`'s
+        (tests/objectives/test_ppo.py); the trainer's update runs this.
+
+        Args:
+            tensordict: a minibatch holding the advantage and the value target.
+
+        Raises:
+            ValueError: the loss standardises the advantage itself (build it with
+                ``normalize_advantage=False`` and standardise before, as
+                :func:`~rlhc.objectives.weighting.learner_weighted_loss` does).
+        """
+        if self.normalize_advantage:
+            raise ValueError("terms() reads a standardised advantage: build the loss with "
+                             "normalize_advantage=False")  # fmt: skip
+        tk, estimator = self.tensor_keys, self.value_estimator
+        advantage = tensordict.get(tk.advantage)
+        # _log_weight: the ratio of the current policy to the behaviour policy.
+        prev_log_prob = tensordict.get(tk.sample_log_prob)
+        dist = policy_distribution(self._actor_parts, tensordict)
+        log_prob = dist.log_prob(tensordict.get(tk.action))
+        log_weight = (log_prob - prev_log_prob).unsqueeze(-1)
+        kl_approx = (prev_log_prob - log_prob).unsqueeze(-1)
+        log_is_weight = None
+        if self.max_importance_ratio is not None:
+            log_is_weight = torch.minimum(
+                torch.zeros_like(log_weight), self.max_importance_ratio.log() - log_weight.detach()
+            )
+        # forward: the clipped surrogate.
+        log_behav_weight = log_weight if log_is_weight is None else log_weight + log_is_weight
+        gain1 = log_behav_weight.exp() * advantage
+        log_weight_clip = log_weight.clamp(*self.log_ratio_bounds())
+        clipped = log_weight_clip != log_weight
+        if log_is_weight is not None:
+            log_weight_clip = log_weight_clip + log_is_weight
+        gain2 = log_weight_clip.exp() * advantage
+        gain = torch.stack([gain1, gain2], -1).min(dim=-1).values
+        entropy = dist.entropy().unsqueeze(-1)
+        values: dict[str, Tensor] = {
+            "loss_objective": -gain,
+            "clip_fraction": clipped.to(log_weight.dtype).mean(),
+            "kl_approx": kl_approx.detach().mean(),
+            "entropy": entropy.detach().mean(),
+            "loss_entropy": -self.entropy_coeff * entropy,
+        }
+        # loss_critic: both critics' networks on their observations.
+        worker = self.critic_network[0]
+        worker_value = worker.module(*(tensordict.get(key) for key in worker.in_keys))
+        manager_value = None
+        if estimator.runs_manager:
+            manager = self.critic_network[1]
+            manager_value = manager.module(*(tensordict.get(key) for key in manager.in_keys))
+        loss, split = self._critic_terms(tensordict, worker_value, manager_value)
+        values["loss_critic"] = loss
+        values.update(split)
+        for key in list(values):
+            if key.startswith("loss_"):
+                values[key] = _reduced(values[key], self.reduction)
+        return LossTerms(values, log_weight.detach(), entropy.detach())
+
+    def log_ratio_bounds(self) -> tuple[Tensor, Tensor]:
+        """``(log(1 - eps), log(1 + eps))``: where ``ClipPPOLoss`` clips ``log(pi / pi_old)``."""
+        return (-self.clip_epsilon).log1p(), self.clip_epsilon.log1p()
+
     def loss_critic(self, tensordict: TensorDictBase) -> tuple[Tensor, None, Tensor]:
         """ClipPPOLoss's critic hook: both critics regressed on the fused value's target.
 
@@ -263,26 +345,36 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             no value-clip fraction, and the explained variance of ``V_hat``.
         """
         tk, estimator = self.tensor_keys, self.value_estimator
-        target = tensordict.get(tk.value_target, None)
-        if target is None:
+        if tk.value_target not in tensordict.keys(include_nested=True):
             raise KeyError(
                 f"missing value target {tk.value_target!r}: run the value estimator first "
                 "(loss.value_estimator(data)) or let forward run it"
             )
-        target = target.detach()
         # On a selection, so that values with gradient never land in the caller's data;
         # PPO ("local" fusion) leaves the manager critic out unless asked to run it.
         critics = self.critic_network if estimator.runs_manager else self.critic_network[0]
         values = critics(tensordict.select(*critics.in_keys, strict=False))
         worker_value = values.get(tk.worker_value)
         manager_value = values.get(tk.manager_value, None)
+        loss, self._critic_split = self._critic_terms(tensordict, worker_value, manager_value)
+        explained = self._critic_split.pop(EXPLAINED_VARIANCE)
+        return loss, None, explained
+
+    def _critic_terms(
+        self, tensordict: TensorDictBase, worker_value: Tensor, manager_value: Tensor | None
+    ) -> tuple[Tensor, dict[str, Tensor]]:
+        """The unreduced critic loss, and its per-critic terms and explained variances."""
+        tk = self.tensor_keys
+        target = tensordict.get(tk.value_target).detach()
         with torch.no_grad():
-            fused, _ = estimator.fused_value().fuse(tensordict, worker_value, manager_value)
+            fused, _ = self.value_estimator.fused_value().fuse(
+                tensordict, worker_value, manager_value
+            )
         # League worlds: the variances over the learner's experiences only.
         learner = tensordict.get(tk.learner, None)
         weight = learner.reshape(target.shape).to(target.dtype) if learner is not None else None
         loss = self.critic_coeff * distance_loss(target, worker_value, self.loss_critic_type)
-        self._critic_split = {
+        split = {
             LOSS_WORKER_CRITIC: loss.detach(),
             EXPLAINED_VARIANCE_WORKER: explained_variance(target, worker_value, weight),
         }
@@ -290,13 +382,11 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             manager = self.critic_coeff * distance_loss(
                 target, manager_value, self.loss_critic_type
             )
-            self._critic_split[LOSS_MANAGER_CRITIC] = manager.detach()
-            self._critic_split[EXPLAINED_VARIANCE_MANAGER] = explained_variance(
-                target, manager_value, weight
-            )
+            split[LOSS_MANAGER_CRITIC] = manager.detach()
+            split[EXPLAINED_VARIANCE_MANAGER] = explained_variance(target, manager_value, weight)
             loss = loss + manager
-        return loss, None, explained_variance(target, fused, weight)
-
+        split[EXPLAINED_VARIANCE] = explained_variance(target, fused, weight)
+        return loss, split
 
 def make_ppo_loss(
     *,

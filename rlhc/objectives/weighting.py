@@ -18,7 +18,7 @@ from tensordict import TensorDictBase
 from tensordict.utils import NestedKey
 from torch import Tensor
 
-from rlhc.objectives.ppo import LOSS_KEYS, HierarchicalPPOLoss
+from rlhc.objectives.ppo import LOSS_KEYS, HierarchicalPPOLoss, LossTerms
 
 #: Sums a tensor over the processes sharing a minibatch (data-parallel training).
 Reduce = Callable[[Tensor], Tensor]
@@ -130,42 +130,34 @@ def learner_weighted_loss(
     total_weight = reduce(weight.sum()) if reduce is not None else None
     if normalize_advantage:
         standardise_advantage(minibatch, keys.advantage, weight, reduce)
-    out = loss(minibatch)
+    terms = loss.terms(minibatch)
+    out = terms.values
     total = sum(weighted_mean(out[term], weight, total_weight) for term in LOSS_KEYS)
     diagnostics = {
         key: weighted_mean(out[key].detach().float(), weight) for key in DIAGNOSTICS if key in out
     }
     if minibatch.get(keys.learner, None) is not None:
         # TorchRL averages these over every experience, the opponents' included.
-        diagnostics.update(policy_diagnostics(loss, minibatch, weight))
+        diagnostics.update(policy_diagnostics(loss, terms, weight))
     return WeightedLoss(total, diagnostics)  # type: ignore[arg-type]
 
 
 def policy_diagnostics(
-    loss: HierarchicalPPOLoss, minibatch: TensorDictBase, weight: Tensor
+    loss: HierarchicalPPOLoss, terms: LossTerms, weight: Tensor
 ) -> dict[str, Tensor]:
     """``kl_approx``, ``clip_fraction`` and ``entropy`` of the current policy on a
     minibatch, each averaged under ``weight``.
 
     ``ClipPPOLoss`` averages these over every experience, and in a league world half of
     them were chosen by an opponent, whose log-probabilities make the ratio meaningless.
-    Recomputed per experience as ``ClipPPOLoss`` does (one more actor forward, without
-    gradient): ``kl_approx = log pi_old(a) - log pi(a)``, clipped where the ratio leaves
-    ``[1 - eps, 1 + eps]``, the analytic entropy or else a one-sample estimate.
+    Per experience as ``ClipPPOLoss`` computes them (from :meth:`~rlhc.objectives.ppo.
+    HierarchicalPPOLoss.terms`): ``kl_approx = log pi_old(a) - log pi(a)``, clipped where
+    the ratio leaves ``[1 - eps, 1 + eps]``, the entropy.
     """
-    keys = loss.tensor_keys
-    with torch.no_grad():
-        dist = loss.actor_network.get_dist(minibatch)
-        log_prob = dist.log_prob(minibatch[keys.action])
-        kl_approx = minibatch[keys.sample_log_prob] - log_prob
-        epsilon = loss.clip_epsilon
-        clipped = (kl_approx < -torch.log1p(epsilon)) | (kl_approx > -torch.log1p(-epsilon))
-        try:
-            entropy = dist.entropy()
-        except NotImplementedError:  # TanhNormal: TorchRL's one-sample estimate
-            entropy = -dist.log_prob(dist.sample())
+    log_weight = terms.log_weight
+    clipped = log_weight.clamp(*loss.log_ratio_bounds()) != log_weight
     return {
-        "kl_approx": weighted_mean(kl_approx, weight),
+        "kl_approx": weighted_mean(-log_weight, weight),
         "clip_fraction": weighted_mean(clipped.float(), weight),
-        "entropy": weighted_mean(entropy, weight),
+        "entropy": weighted_mean(terms.entropy, weight),
     }

@@ -103,8 +103,10 @@ class SingleProcess:
             storing_device=device,
             frames_per_batch=local,
             total_frames=math.ceil(frames / layout.frames_per_batch) * local,
-            # The policy is stateless (no recurrent state to initialise).
+            # The policy is stateless (no recurrent state to initialise), and nothing
+            # reads trajectory ids (the estimator reads the done flags).
             auto_register_policy_transforms=False,
+            track_traj_ids=False,
         )
         try:
             yield from collector
@@ -246,6 +248,7 @@ class Pipeline(SingleProcess):
             frames_per_batch=layout.frames_per_batch,
             total_frames=-1,
             auto_register_policy_transforms=False,
+            track_traj_ids=False,
         )
         with StopSignals():
             try:

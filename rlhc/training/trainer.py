@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import torch
 from tensordict import TensorDictBase
-from tensordict.nn import TensorDictModuleBase, TensorDictSequential
+from tensordict.nn import TensorDictModuleBase
 from torchrl.envs import TransformedEnv
 
 from rlhc.building.builders import (
@@ -36,6 +36,7 @@ from rlhc.config.train_schema import TrainConfig, adapted_lr, schedules
 from rlhc.config.validation import validate
 from rlhc.envs.keys import MANAGER_SELECTED, MANAGER_VALUE, STATE_VALUE, WORKER_VALUE
 from rlhc.modules import make_actor
+from rlhc.modules.policies import GroupPolicies
 from rlhc.objectives import WeightedLoss, cut_trajectories, learner_weighted_loss
 from rlhc.storage.checkpoint import CHECKPOINT_DIR, save_checkpoint, seed_everything
 from rlhc.storage.final_team import save_team
@@ -106,7 +107,7 @@ class Trainer:
         self.groups = group_names(self.env)
         # Per-sample losses: every term is averaged under the learner weight (league worlds).
         self.actors, self.losses = make_agents(cfg, self.env, learner_weighted=True)
-        self.policy = TensorDictSequential(*self.actors.values())
+        self.policy = GroupPolicies(self.actors)
         self.league: League | None = None
         self.collection_policy: TensorDictModuleBase = self.policy
         if cfg.league.active:
