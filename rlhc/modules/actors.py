@@ -42,7 +42,6 @@ from rlhc.modules.mlp import GroupMLP, group_mlp
 from rlhc.modules.schemas import NetworkConfig
 from rlhc.modules.specs import HasSpecs, action_spec, observation_size
 
-
 #: The distributions skip torch's argument checks: each costs a host sync per call (a
 #: collection step, a minibatch), and the game rejects a non-finite action on its own.
 _UNCHECKED = {"validate_args": False}
@@ -211,7 +210,7 @@ def make_actor(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorDictModul
                 out_keys=[(group, PRE_TANH_ACTION)],
                 distribution_class=PreTanhNormal,
                 return_log_prob=True,
-            distribution_kwargs=_UNCHECKED,
+                distribution_kwargs=_UNCHECKED,
             )
             squash = Squash(
                 _per_agent_bound(spec.space.low, size, "low"),

@@ -75,11 +75,16 @@ def actor_parts(actor: TensorDictModuleBase) -> ActorParts:
         assert isinstance(actor, TensorDictSequential)
         squash = actor.module[1]
     return ActorParts(
-        network, draw, tuple(names[key] for key in network.out_keys), squash  # type: ignore[arg-type]
+        network,
+        draw,
+        tuple(names[key] for key in network.out_keys),
+        squash,  # type: ignore[arg-type]
     )
 
 
-def policy_distribution(parts: ActorParts, tensordict: TensorDictBase) -> torch.distributions.Distribution:
+def policy_distribution(
+    parts: ActorParts, tensordict: TensorDictBase
+) -> torch.distributions.Distribution:
     """The distribution the actor builds on ``tensordict``: its network called on the
     observation tensor, the parameters handed to the distribution class directly."""
     out = parts.network.module(*(tensordict.get(key) for key in parts.network.in_keys))

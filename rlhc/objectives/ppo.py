@@ -388,6 +388,7 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         split[EXPLAINED_VARIANCE] = explained_variance(target, fused, weight)
         return loss, split
 
+
 def make_ppo_loss(
     *,
     actor: TensorDictModuleBase,

@@ -397,3 +397,54 @@ def test_policy_diagnostics_are_torchrls_where_every_experience_is_the_learners(
     assert_close(ours["clip_fraction"], theirs["clip_fraction"])
     if discrete is not None:
         assert_close(ours["entropy"], theirs["entropy"])
+
+
+@pytest.mark.parametrize("discrete", [None, 6])
+@pytest.mark.parametrize("fusion", ["local", "max", "mean"])
+@pytest.mark.parametrize("max_importance_ratio", [None, 1.5])
+def test_terms_are_forwards_values_and_gradients(
+    discrete: int | None, fusion: str, max_importance_ratio: float | None
+) -> None:
+    # The trainer's path (terms) against ClipPPOLoss.forward: every output it writes and
+    # every parameter's gradient, equal to 1e-6, on a policy moved since collection.
+    specs = make_specs(discrete=discrete)
+    cfg = NetworkConfig(hidden_size=16)
+    torch.manual_seed(0)
+    loss = make_ppo_loss(
+        actor=make_actor(specs, GROUP, cfg),
+        worker_critic=make_worker_critic(specs, GROUP, cfg),
+        manager_critic=make_manager_critic(specs, GROUP, cfg),
+        group=GROUP,
+        fusion=fusion,
+        reduction="none",
+        normalize_advantage=False,
+        max_importance_ratio=max_importance_ratio,
+    )
+    data = collected(loss)
+    with torch.no_grad():
+        loss.value_estimator(data)
+        for parameter in loss.actor_network.parameters():
+            parameter.add_(0.2 * torch.randn_like(parameter))
+    flat = data.reshape(-1)
+    theirs, ours = loss(flat.clone()), loss.terms(flat.clone()).values
+    assert set(ours) == set(theirs.keys()) - {"ESS", "max_ratio", "mean_ratio"}
+    for key, value in ours.items():
+        assert_close(value, theirs[key], atol=1e-6, rtol=1e-6)
+    parameters = list(loss.parameters())
+
+    def gradients(out: object) -> list[torch.Tensor | None]:
+        total = sum(out[k].sum() for k in ("loss_objective", "loss_critic", "loss_entropy"))  # type: ignore[index]
+        return list(torch.autograd.grad(total, parameters, allow_unused=True))
+
+    for a, b in zip(
+        gradients(loss.terms(flat.clone()).values), gradients(loss(flat.clone())), strict=True
+    ):
+        assert (a is None) == (b is None)
+        if a is not None:
+            assert_close(a, b, atol=1e-6, rtol=1e-6)
+
+
+def test_terms_refuse_a_loss_that_standardises(networks: Callable) -> None:
+    loss = build_loss(networks, normalize_advantage=True)
+    with pytest.raises(ValueError, match="normalize_advantage=False"):
+        loss.terms(collected(loss))
