@@ -275,7 +275,7 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         their TensorDict work: the actor's network called on its observation tensor, its
         distribution built once (:func:`~rlhc.modules.policies.policy_distribution`), the
         critics' networks called on theirs. The values equal :meth:`forward`'s
-        (tests/objectives/test_ppo.py); the trainer's update runs this.
+        (tests/objectives/test_ppo_loss.py); the trainer's update runs this.
 
         Args:
             tensordict: a minibatch holding the advantage and the value target.

@@ -363,13 +363,10 @@ def test_weighted_explained_variance_is_that_of_the_weighted_elements() -> None:
     )
 
 
-@pytest.mark.parametrize("discrete", [None, 6])
-def test_policy_diagnostics_are_torchrls_where_every_experience_is_the_learners(
-    discrete: int | None,
-) -> None:
-    # On data the learner chose throughout, the recomputed KL and clip fraction are
-    # ClipPPOLoss's own (and the analytic entropy too); the policy has moved since the
-    # data was collected, so neither is trivially 0.
+def moved_policy_loss(
+    discrete: int | None, **kwargs: object
+) -> tuple[HierarchicalPPOLoss, TensorDict]:
+    """A per-sample loss and its estimated data (flat), the policy moved since collection."""
     specs = make_specs(discrete=discrete)
     cfg = NetworkConfig(hidden_size=16)
     torch.manual_seed(0)
@@ -380,14 +377,24 @@ def test_policy_diagnostics_are_torchrls_where_every_experience_is_the_learners(
         group=GROUP,
         reduction="none",
         normalize_advantage=False,
-        clip_epsilon=0.05,
+        **kwargs,  # type: ignore[arg-type]
     )
     data = collected(loss)
     with torch.no_grad():
         loss.value_estimator(data)
         for parameter in loss.actor_network.parameters():
             parameter.add_(0.2 * torch.randn_like(parameter))
-    flat = data.reshape(-1)
+    return loss, data.reshape(-1)
+
+
+@pytest.mark.parametrize("discrete", [None, 6])
+def test_policy_diagnostics_are_torchrls_where_every_experience_is_the_learners(
+    discrete: int | None,
+) -> None:
+    # On data the learner chose throughout, the recomputed KL and clip fraction are
+    # ClipPPOLoss's own (and the analytic entropy too); the policy has moved since the
+    # data was collected, so neither is trivially 0.
+    loss, flat = moved_policy_loss(discrete, clip_epsilon=0.05)
     flat[GROUP, "learner"] = torch.ones(*flat[GROUP, "advantage"].shape, dtype=torch.bool)
     weight = learner_weight(flat, (GROUP, "learner"), flat[GROUP, "advantage"])
     ours = policy_diagnostics(loss, loss.terms(flat.clone()), weight)
@@ -407,25 +414,9 @@ def test_terms_are_forwards_values_and_gradients(
 ) -> None:
     # The trainer's path (terms) against ClipPPOLoss.forward: every output it writes and
     # every parameter's gradient, equal to 1e-6, on a policy moved since collection.
-    specs = make_specs(discrete=discrete)
-    cfg = NetworkConfig(hidden_size=16)
-    torch.manual_seed(0)
-    loss = make_ppo_loss(
-        actor=make_actor(specs, GROUP, cfg),
-        worker_critic=make_worker_critic(specs, GROUP, cfg),
-        manager_critic=make_manager_critic(specs, GROUP, cfg),
-        group=GROUP,
-        fusion=fusion,
-        reduction="none",
-        normalize_advantage=False,
-        max_importance_ratio=max_importance_ratio,
+    loss, flat = moved_policy_loss(
+        discrete, fusion=fusion, max_importance_ratio=max_importance_ratio
     )
-    data = collected(loss)
-    with torch.no_grad():
-        loss.value_estimator(data)
-        for parameter in loss.actor_network.parameters():
-            parameter.add_(0.2 * torch.randn_like(parameter))
-    flat = data.reshape(-1)
     theirs, ours = loss(flat.clone()), loss.terms(flat.clone()).values
     assert set(ours) == set(theirs.keys()) - {"ESS", "max_ratio", "mean_ratio"}
     for key, value in ours.items():
