@@ -75,6 +75,8 @@ class SafeVecNorm(Transform):
         self.register_buffer("initialized", torch.zeros((), dtype=torch.bool))
         #: ``loc`` (``E[x]``), ``var`` (``E[x^2]``) and ``count`` per key, once data came.
         self.moments: TensorDict | None = None
+        #: ``(moments, key -> its tensors)``: see :meth:`_key_moments`.
+        self._lookup: tuple[TensorDict, dict[NestedKey, tuple[torch.Tensor, ...]]] | None = None
 
     # --- TorchRL's transform hooks --------------------------------------------------
     def _step(self, tensordict: TensorDictBase, next_tensordict: TensorDictBase) -> TensorDictBase:
@@ -114,19 +116,18 @@ class SafeVecNorm(Transform):
         """
         batch = tuple(range(data.batch_dims))
         present = self._present(data)
-        for key in present:
-            if self.moments is None or self.moments.get(("count", *_tuple(key)), None) is None:
-                self._initialise(key, data.get(key), batch)
+        for key, value in present:
+            if key not in self._key_moments():
+                self._initialise(key, value, batch)
         if self.frozen or self.moments is None:
             return data
         n = data.numel()
         weight = 1 - self.decay**n
-        for key in present:
-            value = data.get(key)
-            seen = self.moments.get(("count", *_tuple(key))).add_(n)
+        moments = self._key_moments()
+        for key, value in present:
+            mean, second, seen = moments[key]
+            seen.add_(n)
             step = n / seen if self.decay == 1.0 else weight
-            mean = self.moments.get(("loc", *_tuple(key)))
-            second = self.moments.get(("var", *_tuple(key)))
             batch_mean = value.mean(dim=batch) if batch else value
             batch_second = value.pow(2).mean(dim=batch) if batch else value.pow(2)
             mean.lerp_(batch_mean.to(mean.device), step)
@@ -135,13 +136,13 @@ class SafeVecNorm(Transform):
 
     def normalise(self, data: TensorDictBase) -> TensorDictBase:
         """``data`` with every ``in_keys`` entry it holds normalised (and clipped), in place."""
-        keys = self._present(data)
-        if self.moments is None or not keys:
+        present = self._present(data)
+        if self.moments is None or not present:
             return data
-        loc, scale = self.loc, self.scale
-        for key in keys:
-            value = data.get(key)
-            normalised = (value - loc.get(key).to(value.device)) / scale.get(key).to(value.device)
+        moments = self._key_moments()
+        for key, value in present:
+            loc, scale = self._loc_scale(*moments[key])
+            normalised = (value - loc.to(value.device)) / scale.to(value.device)
             if self.clip is not None:
                 normalised = normalised.clamp(-self.clip, self.clip)
             data.set(key, normalised)
@@ -161,23 +162,44 @@ class SafeVecNorm(Transform):
         if self.moments is None:
             raise RuntimeError("SafeVecNorm has seen no data yet: no statistics to read")
         loc, scale = TensorDict(), TensorDict()
-        log_decay = math.log(self.decay) if self.decay < 1.0 else None
-        for key in self.moments["loc"].keys(True, True):
-            mean = self.moments.get(("loc", *_tuple(key)))
-            second = self.moments.get(("var", *_tuple(key)))
-            variance = torch.maximum(second, mean.pow(2)) - mean.pow(2)
-            if log_decay is None:  # cumulative averages need no bias correction
-                loc.set(key, mean)
-                scale.set(key, variance.sqrt().clamp_min(self.eps))
-            else:
-                count = self.moments.get(("count", *_tuple(key)))
-                correction = (1 - (count * log_decay).exp()).to(mean.dtype)
-                loc.set(key, mean / correction)
-                scale.set(key, (variance / correction).sqrt().clamp_min(self.eps))
+        for key, moments in self._key_moments().items():
+            key_loc, key_scale = self._loc_scale(*moments)
+            loc.set(key, key_loc)
+            scale.set(key, key_scale)
         return loc, scale
 
-    def _present(self, data: TensorDictBase) -> list[NestedKey]:
-        return [key for key in self.in_keys if data.get(key, None) is not None]
+    def _loc_scale(
+        self, mean: torch.Tensor, second: torch.Tensor, count: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """The mean and the scale (at least ``eps``) of one key, bias-corrected under a decay."""
+        variance = torch.maximum(second, mean.pow(2)) - mean.pow(2)
+        if self.decay == 1.0:  # cumulative averages need no bias correction
+            return mean, variance.sqrt().clamp_min(self.eps)
+        correction = (1 - (count * math.log(self.decay)).exp()).to(mean.dtype)
+        return mean / correction, (variance / correction).sqrt().clamp_min(self.eps)
+
+    def _key_moments(self) -> dict[NestedKey, tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
+        """``key -> (E[x], E[x^2], count)``: the tensors of :attr:`moments` themselves
+        (updated in place), looked up once per :attr:`moments` object."""
+        if self.moments is None:
+            return {}
+        if self._lookup is None or self._lookup[0] is not self.moments:
+            moments = self.moments
+            table = {
+                key: tuple(moments.get((name, *_tuple(key))) for name in ("loc", "var", "count"))
+                for key in moments["loc"].keys(True, True)
+            }
+            self._lookup = (moments, table)
+        return self._lookup[1]  # type: ignore[return-value]
+
+    def _present(self, data: TensorDictBase) -> list[tuple[NestedKey, torch.Tensor]]:
+        """The ``(key, value)`` of the ``in_keys`` that ``data`` holds."""
+        present = []
+        for key in self.in_keys:
+            value = data.get(key, None)
+            if value is not None:
+                present.append((key, value))
+        return present
 
     def _initialise(self, key: NestedKey, value: torch.Tensor, batch: tuple[int, ...]) -> None:
         """Zero moments for ``key``, shaped as one observation of ``value``."""
@@ -188,6 +210,7 @@ class SafeVecNorm(Transform):
         for name in ("loc", "var"):
             self.moments.set((name, *_tuple(key)), torch.zeros(shape, dtype=dtype, device=device))
         self.moments.set(("count", *_tuple(key)), torch.zeros((), dtype=torch.int64, device=device))
+        self._lookup = None
         self.initialized.fill_(True)
 
     # --- state dict (VecNormV2's layout) -----------------------------------------------
