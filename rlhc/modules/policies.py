@@ -11,7 +11,8 @@ parameters are not written: nothing reads them after collection. The draws, and 
 seeded run, are those of the actors themselves (tests/modules/test_policies.py).
 
 :func:`policy_distribution` is the same distribution for the loss's minibatches
-(:meth:`~rlhc.objectives.ppo.HierarchicalPPOLoss.terms`).
+(:meth:`~rlhc.objectives.ppo.HierarchicalPPOLoss.terms`), :func:`draw_action` the same
+draw for a league's past selves (:class:`~rlhc.training.league.LeaguePolicy`).
 """
 
 from __future__ import annotations
@@ -94,6 +95,23 @@ def policy_distribution(
     )
 
 
+def draw_action(
+    parts: ActorParts, tensordict: TensorDictBase, log_prob: bool = True
+) -> dict[NestedKey, torch.Tensor]:
+    """One draw of the actor on ``tensordict``, as ``ProbabilisticActor`` draws it under
+    ``ExplorationType.RANDOM``: ``rsample`` where the distribution has one, else
+    ``sample``; by output key, the draw, its log-probability (``log_prob``) and
+    (``tanh_normal``) the squashed action."""
+    dist = policy_distribution(parts, tensordict)
+    sample = dist.rsample() if dist.has_rsample else dist.sample()
+    out = {parts.draw.dist_sample_keys[0]: sample}
+    if log_prob:
+        out[parts.draw.log_prob_key] = dist.log_prob(sample)
+    if parts.squash is not None:
+        out[parts.squash.out_keys[0]] = parts.squash.module(sample)
+    return out
+
+
 class GroupPolicies(TensorDictModuleBase):
     """The actors of every group as one collection policy, drawing as they do.
 
@@ -127,10 +145,6 @@ class GroupPolicies(TensorDictModuleBase):
                 tensordict = actor(tensordict)
             return tensordict
         for parts in self.parts:
-            dist = policy_distribution(parts, tensordict)
-            sample = dist.rsample() if dist.has_rsample else dist.sample()
-            tensordict.set(parts.draw.dist_sample_keys[0], sample)
-            tensordict.set(parts.draw.log_prob_key, dist.log_prob(sample))
-            if parts.squash is not None:
-                tensordict.set(parts.squash.out_keys[0], parts.squash.module(sample))
+            for key, value in draw_action(parts, tensordict).items():
+                tensordict.set(key, value)
         return tensordict

@@ -20,12 +20,14 @@ import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 from torchrl.envs import EnvBase
+from torchrl.envs.utils import ExplorationType, exploration_type
 
 from rlhc.config.train_schema import LeagueConfig
 from rlhc.envs.keys import ACTION, DONE, LEARNER, NEXT, OBSERVATION, SCORING_TEAM, STEP_COUNT, TEAM
 from rlhc.envs.torchrl_adapter import BatchedGameEnv, batched_game_env
 from rlhc.evaluation.elo import INITIAL_RATING, K_FACTOR, elo_update, expected_score
 from rlhc.evaluation.teams import RandomPolicy, ScriptedPolicy, TeamPolicy
+from rlhc.modules.policies import actor_parts, draw_action
 
 KINDS = ("self", "snapshot", "scripted", "random")
 #: Root keys the league policy writes at every step (stored by the collector).
@@ -228,6 +230,7 @@ class LeaguePolicy(TensorDictModuleBase):
         self.scripted: TeamPolicy = ScriptedPolicy(game_env)
         self.random: TeamPolicy = RandomPolicy(game_env)
         self.frozen = {g: make_actor(g).requires_grad_(False).eval() for g in self.groups}
+        self._parts = {g: actor_parts(actor) for g, actor in self.frozen.items()}
         self._loaded: dict[str, int] = {}
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -292,6 +295,10 @@ class LeaguePolicy(TensorDictModuleBase):
             if self._loaded.get(group) != snapshot_id:
                 actor.load_state_dict(snapshot.actors[group])
                 self._loaded[group] = snapshot_id
-            inputs = tensordict.select(*actor.in_keys).clone(recurse=False)
-            out[group] = actor(inputs)[group, ACTION]
+            if exploration_type() is ExplorationType.RANDOM:  # as the actor draws, on tensors
+                drawn = draw_action(self._parts[group], tensordict, log_prob=False)
+                out[group] = drawn[group, ACTION]
+            else:
+                inputs = tensordict.select(*actor.in_keys).clone(recurse=False)
+                out[group] = actor(inputs)[group, ACTION]
         return out
