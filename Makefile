@@ -1,5 +1,5 @@
 # Two commands set everything up on a fresh machine:
-#   make train   installs into .venv (if missing) and runs the default game's paper preset
+#   make train   installs into .venv (if missing), trains a team that plays and shows it
 #   make test    installs into .venv (if missing) and runs the test suite
 #   make docs    builds the documentation site into site/ (strict: a broken link fails)
 VENV   ?= .venv
@@ -21,15 +21,24 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e ".[dev,cluster,docs]"
 	touch $(STAMP)
 
-# make train PROCS=2: the same run on 2 processes, collection overlapped with the update
-# (torchrun, parallel=pipeline; docs/guide/performance.md "Several processes").
+# make train: the game's preset whose teams play (preset=best, RLHC's hierarchical critic),
+# then its showcase in <run>/showcase/ (python -m rlhc.evaluate mode=showcase): point.gif,
+# curves.png, showcase.json, and the headline numbers printed.
+#   make train GAME=soccer            the other game
+#   make train ARGS=preset=paper      the paper's Table 3 preset instead
+#   make train PROCS=2                the same run on 2 processes (torchrun, parallel=data)
+GAME   ?= tennis
+ARGS   ?=
 PROCS  ?= 1
-train: $(STAMP)
+RUN    := outputs/train/$(GAME)/$(shell date +%Y-%m-%d_%H-%M-%S)
 ifeq ($(PROCS),1)
-	$(PY) -m rlhc.run
+TRAIN  := $(PY) -m rlhc.run
 else
-	$(PY) -m torch.distributed.run --standalone --nproc_per_node=$(PROCS) -m rlhc.run parallel=pipeline
+TRAIN  := $(PY) -m torch.distributed.run --standalone --nproc_per_node=$(PROCS) -m rlhc.run parallel=data
 endif
+train: $(STAMP)
+	$(TRAIN) env=$(GAME) preset=best hydra.run.dir=$(RUN) $(ARGS)
+	$(PY) -m rlhc.evaluate mode=showcase env=$(GAME) home=$(RUN) matches=50 hydra.run.dir=$(RUN)/showcase
 
 # tests/ and the examples in rlhc/'s docstrings (pyproject.toml: testpaths, --doctest-modules).
 # No tests collected (pytest's exit code 5) is a failure.

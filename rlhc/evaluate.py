@@ -9,6 +9,7 @@ Examples:
     python -m rlhc.evaluate env=soccer home=outputs/soccer/hierarchical/<time> away=scripted matches=100
     python -m rlhc.evaluate env=tennis home=scripted away=random deterministic=false video.enabled=true
     python -m rlhc.evaluate mode=elo env=soccer 'players=[scripted,random,outputs/soccer/ppo/<time>]'
+    python -m rlhc.evaluate mode=showcase env=tennis home=outputs/tennis/hierarchical/<time>
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from rlhc.cli.report import HYDRA_USER_ERRORS, user_errors_in_one_line
 from rlhc.config.evaluate_schema import EvaluateConfig, register_evaluate_configs
 from rlhc.config.train_schema import CONFIG_DIR
 from rlhc.evaluation.commands import check_evaluation, run_elo, run_match
+from rlhc.evaluation.showcase import run_showcase
 from rlhc.storage.checkpoint import seed_everything
 
 PROGRAM = "rlhc.evaluate"
@@ -36,7 +38,8 @@ register_evaluate_configs()
 # ``rlhc.evaluate`` (from :func:`cli`, in tests), and ``conf`` is not a package.
 @hydra.main(version_base="1.3", config_path=str(CONFIG_DIR), config_name="evaluate")
 def main(cfg: DictConfig) -> float:
-    """Run one evaluation; returns the home score (``match``) or the best rating (``elo``)."""
+    """Run one evaluation; returns the home score (``match``), the best rating (``elo``)
+    or the share of the scripted team's points that ``home`` took (``showcase``)."""
     eval_cfg: EvaluateConfig = OmegaConf.to_object(cfg)  # type: ignore[assignment]
     check_evaluation(eval_cfg)  # again: a multirun's jobs are checked here only
     if eval_cfg.threads > 0:
@@ -45,6 +48,8 @@ def main(cfg: DictConfig) -> float:
     out_dir = Path(HydraConfig.get().runtime.output_dir)
     if eval_cfg.mode == "elo":
         return run_elo(eval_cfg, out_dir).standings()[0][1]
+    if eval_cfg.mode == "showcase":
+        return run_showcase(eval_cfg, out_dir)["headlines"]["points_won_vs_scripted"]
     return float(run_match(eval_cfg, out_dir)["score"])
 
 

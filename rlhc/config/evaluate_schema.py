@@ -11,7 +11,7 @@ from omegaconf import MISSING
 from rlhc.config.train_schema import register_configs
 from rlhc.envs.keys import RANDOM, SCRIPTED
 
-MODES = ("match", "elo")
+MODES = ("match", "elo", "showcase")
 
 
 @dataclass
@@ -33,19 +33,23 @@ class VideoConfig:
 
 @dataclass
 class EvaluateConfig:
-    """Head-to-head matches (``mode=match``) or an Elo round robin (``mode=elo``).
+    """Head-to-head matches (``mode=match``), an Elo round robin (``mode=elo``) or a
+    trained team's showcase (``mode=showcase``: :mod:`rlhc.evaluation.showcase`).
 
     A *player* is ``random``, ``scripted``, a checkpoint file or a run directory (its
     ``checkpoints/latest.pt``).
 
     Attributes:
-        mode: ``match``: ``home`` against ``away``; ``elo``: every pair of ``players``.
+        mode: ``match``: ``home`` against ``away``; ``elo``: every pair of ``players``;
+            ``showcase``: ``home`` against itself, the scripted and the random team, one
+            point of it on video (whatever ``video.enabled``) and its run's curves.
         env: the game (group ``env``, as in ``rlhc.run``); ``env.num_envs`` worlds play at
             once (``None``: up to 32). A checkpoint's observation options override these.
-        home: the home player (``mode=match``).
+        home: the home player (``mode=match``), the team shown (``mode=showcase``).
         away: the away player (``mode=match``).
         players: the players of the round robin (``mode=elo``).
-        matches: matches per series (per pairing in ``mode=elo``).
+        matches: matches per series (per pairing in ``mode=elo``, per opponent in
+            ``mode=showcase``).
         deterministic: the policies' mode action; ``false``: sampled actions.
         swap_sides: alternate the home player's team between matches.
         points_to_win: first to this many points wins (``None``: the game's, tennis 5, soccer 1).
