@@ -21,12 +21,12 @@ import torch
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
+from rlhc.analysis.showcase import run_showcase
 from rlhc.cli.hydra_hooks import PreflightFailed
 from rlhc.cli.report import HYDRA_USER_ERRORS, user_errors_in_one_line
 from rlhc.config.evaluate_schema import EvaluateConfig, register_evaluate_configs
 from rlhc.config.train_schema import CONFIG_DIR
 from rlhc.evaluation.commands import check_evaluation, run_elo, run_match
-from rlhc.evaluation.showcase import run_showcase
 from rlhc.storage.checkpoint import seed_everything
 
 PROGRAM = "rlhc.evaluate"

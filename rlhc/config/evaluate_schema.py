@@ -34,7 +34,7 @@ class VideoConfig:
 @dataclass
 class EvaluateConfig:
     """Head-to-head matches (``mode=match``), an Elo round robin (``mode=elo``) or a
-    trained team's showcase (``mode=showcase``: :mod:`rlhc.evaluation.showcase`).
+    trained team's showcase (``mode=showcase``: :mod:`rlhc.analysis.showcase`).
 
     A *player* is ``random``, ``scripted``, a checkpoint file or a run directory (its
     ``checkpoints/latest.pt``).

@@ -4,7 +4,7 @@
 |---|---|---|
 | ``match`` | ``home`` vs ``away``, ``matches`` times | ``results.json`` (summary), ``matches.csv`` (one row per match), optionally ``match.gif``/``.mp4`` |
 | ``elo`` | every pair of ``players``, ``matches`` times each | ``elo.json``, ``elo.csv`` (standings), ``pairings.csv`` (one row per pairing), optionally ``videos/<i>_<home>_vs_<away>.gif``/``.mp4`` (one match per pairing) |
-| ``showcase`` | ``home`` against itself, the scripted and the random team, ``matches`` times each | ``showcase.json`` (headlines and summaries), ``point.gif``/``.mp4``, ``curves.png`` (:mod:`rlhc.evaluation.showcase`) |
+| ``showcase`` | ``home`` against itself, the scripted and the random team, ``matches`` times each | ``showcase.json`` (headlines and summaries), ``point.gif``/``.mp4``, ``curves.png`` (:mod:`rlhc.analysis.showcase`) |
 """
 
 from __future__ import annotations

@@ -8,12 +8,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+from configs import load_smoke
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 from PIL import Image
 
+from rlhc.analysis.showcase import CURVES_FILE, SHOWCASE_FILE, run_showcase
 from rlhc.config.evaluate_schema import EvaluateConfig, register_evaluate_configs
-from rlhc.evaluation.showcase import CURVES_FILE, SHOWCASE_FILE, run_showcase
 
 ROOT = Path(__file__).resolve().parents[2]
 register_evaluate_configs()
@@ -25,10 +27,22 @@ def load(*overrides: str) -> EvaluateConfig:
     return OmegaConf.to_object(cfg)  # type: ignore[return-value]
 
 
+@pytest.fixture(scope="module")
+def tennis_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Run directory of a one-update tennis run (its final team and metrics.csv)."""
+    from rlhc.training.trainer import Trainer
+
+    run_dir = tmp_path_factory.mktemp("tennis_run")
+    Trainer(
+        load_smoke("env=tennis", "algo.max_steps=256", "logger.backends=[csv]"), run_dir
+    ).train()
+    return run_dir
+
+
 def test_a_trained_run_gets_its_headlines_video_and_curves(
-    checkpoints: dict[str, Path], tmp_path: Path
+    tennis_run: Path, tmp_path: Path
 ) -> None:
-    run_dir = checkpoints["tennis"]
+    run_dir = tennis_run
     cfg = load("env=tennis", f"home={run_dir}", "matches=4", "video.max_frames=6")
     result = run_showcase(cfg, tmp_path)
     saved = json.loads((tmp_path / SHOWCASE_FILE).read_text())
