@@ -21,23 +21,28 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e ".[dev,cluster,docs]"
 	touch $(STAMP)
 
-# make train: the game's preset whose teams play (preset=best, RLHC's hierarchical critic),
+# make train: the game's preset whose teams play (PRESET=best, RLHC's hierarchical critic),
 # then its showcase in <run>/showcase/ (python -m rlhc.evaluate mode=showcase): point.gif,
 # curves.png, showcase.json, and the headline numbers printed.
 #   make train GAME=soccer            the other game
-#   make train ARGS=preset=paper      the paper's Table 3 preset instead
-#   make train PROCS=2                the same run on 2 processes (torchrun, parallel=data)
+#   make train PRESET=paper           the paper's Table 3 preset instead
+#   make train ARGS="critic=ppo seed=1"   any other overrides
+#   make train PROCS=2                the same run on 2 processes (torchrun, parallel=$(PARALLEL);
+#                                     pipeline is faster on 2 cores, but not with a league:
+#                                     make train PRESET=paper PROCS=2 PARALLEL=pipeline)
 GAME   ?= tennis
+PRESET ?= best
 ARGS   ?=
 PROCS  ?= 1
+PARALLEL ?= data
 RUN    := outputs/train/$(GAME)/$(shell date +%Y-%m-%d_%H-%M-%S)
 ifeq ($(PROCS),1)
 TRAIN  := $(PY) -m rlhc.run
 else
-TRAIN  := $(PY) -m torch.distributed.run --standalone --nproc_per_node=$(PROCS) -m rlhc.run parallel=data
+TRAIN  := $(PY) -m torch.distributed.run --standalone --nproc_per_node=$(PROCS) -m rlhc.run parallel=$(PARALLEL)
 endif
 train: $(STAMP)
-	$(TRAIN) env=$(GAME) preset=best hydra.run.dir=$(RUN) $(ARGS)
+	$(TRAIN) env=$(GAME) preset=$(PRESET) hydra.run.dir=$(RUN) $(ARGS)
 	$(PY) -m rlhc.evaluate mode=showcase env=$(GAME) home=$(RUN) matches=50 hydra.run.dir=$(RUN)/showcase
 
 # tests/ and the examples in rlhc/'s docstrings (pyproject.toml: testpaths, --doctest-modules).
