@@ -77,7 +77,9 @@ def run_showcase(cfg: EvaluateConfig, out_dir: Path) -> dict[str, Any]:
     files = {"video": str(record_video(point, home, home, out_dir / f"point.{cfg.video.format}"))}
     run_dir = _run_dir(home, env_name)
     if run_dir is not None:
-        curves = plot_groups(group_runs(load_runs([run_dir])), out_dir / CURVES_FILE, metrics=CURVES)
+        curves = plot_groups(
+            group_runs(load_runs([run_dir])), out_dir / CURVES_FILE, metrics=CURVES
+        )
         files["curves"] = str(curves)
     result = {"env": env_name, "home": home, "matches": cfg.matches, "headlines": headlines}
     result.update(series=series, play=play, files=files)

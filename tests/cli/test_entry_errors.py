@@ -110,7 +110,7 @@ def test_a_bad_mode_names_the_allowed_ones(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     outcome = evaluated(["mode=league"], tmp_path, monkeypatch, capsys)
-    assert the_error(outcome, "rlhc.evaluate") == "mode='league'; allowed: match, elo"
+    assert the_error(outcome, "rlhc.evaluate") == "mode='league'; allowed: match, elo, showcase"
 
 
 def test_a_misspelt_setting_is_hydras_error_in_one_line(
