@@ -62,9 +62,10 @@ def run_showcase(cfg: EvaluateConfig, out_dir: Path) -> dict[str, Any]:
 
     out_dir.mkdir(parents=True, exist_ok=True)
     home, env_name = cfg.home, cfg.env.name
+    state = None if is_built_in(home) else load_policy_checkpoint(home, env_name)
     play: dict[str, Any] = {}
-    if not is_built_in(home) and env_name in DIAGNOSTICS:
-        play = diagnose(load_policy_checkpoint(home, env_name), seed=cfg.seed)
+    if state is not None and env_name in DIAGNOSTICS:
+        play = diagnose(state, seed=cfg.seed)
     series = {team: play_series(cfg, home, team).summary() for team in (SCRIPTED, RANDOM)}
     headlines = {key: float(play[key]) for key in PLAY_HEADLINES if key in play}
     for team, summary in series.items():
@@ -75,7 +76,7 @@ def run_showcase(cfg: EvaluateConfig, out_dir: Path) -> dict[str, Any]:
         headlines[f"win_rate_vs_{team}"] = summary["win_rate"]
     point = replace(cfg, points_to_win=1)
     files = {"video": str(record_video(point, home, home, out_dir / f"point.{cfg.video.format}"))}
-    run_dir = _run_dir(home, env_name)
+    run_dir = None if state is None else _run_dir(Path(state["path"]))
     if run_dir is not None:
         curves = plot_groups(
             group_runs(load_runs([run_dir])), out_dir / CURVES_FILE, metrics=CURVES
@@ -117,11 +118,9 @@ def format_headlines(home: str, matches: int, headlines: dict[str, float]) -> st
     return "\n".join(lines)
 
 
-def _run_dir(spec: str, env_name: str) -> Path | None:
-    """The run directory of a checkpoint player (the nearest one up holding ``metrics.csv``)."""
-    if is_built_in(spec):
-        return None
-    path = Path(load_policy_checkpoint(spec, env_name)["path"]).resolve()
+def _run_dir(checkpoint: Path) -> Path | None:
+    """The run directory of a checkpoint file (the nearest one up holding ``metrics.csv``)."""
+    path = checkpoint.resolve()
     for directory in (path, *path.parents)[:3]:
         if (directory / METRICS_FILE).is_file():
             return directory
