@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet "$(TORCH)"
-	$(PY) -m pip install --quiet -e ".[dev,cluster,docs]"
+	$(PY) -m pip install --quiet -e ".[dev,cluster,docs,envs]"
 	touch $(STAMP)
 
 # make train: the game's preset whose teams play (PRESET=best, RLHC's hierarchical critic),

@@ -24,3 +24,9 @@ def allowed(key: str, value: object, what: str) -> ConfigError:
     """
     shown = repr(value) if isinstance(value, str) else str(value)
     return ConfigError(f"{key}={shown}; allowed: {what}")
+
+
+class EnvError(ValueError):
+    """An environment that breaks the contract while it runs (an observation that is NaN,
+    an agent that leaves mid-episode): names the agent, the step and what is allowed.
+    ``rlhc.run`` reports it in one line (exit 2); checkpoints written so far stay."""

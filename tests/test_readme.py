@@ -67,6 +67,11 @@ REDUCED: dict[str, tuple[list[str], dict[str, str]]] = {
         {},
     ),
     "python -m rlhc.plot multirun/<time>/* --out curves.png": ([], {}),
+    "python -m rlhc.run env=vmas env.scenario=navigation critic=hierarchical": (TINY, {}),
+    "python -m rlhc.run env=pettingzoo env.factory=mpe2.simple_spread_v3:parallel_env 'env.kwargs={N: 3}'": (
+        [*TINY, "algo.buffer_size=192", "algo.batch_size=96"],  # multiples of its 3 agents
+        {},
+    ),
 }  # fmt: skip
 
 
@@ -172,6 +177,13 @@ def test_the_quick_start_commands_run_as_written(tmp_path: Path) -> None:
     assert list((tmp_path / "outputs" / "evaluate" / "soccer").rglob("elo.csv"))
     run(next(names), time=sweep.name)
     assert (tmp_path / "curves.png").stat().st_size > 0
+
+    # Environments of other libraries (the envs extra).
+    run(next(names))
+    assert (only_child(tmp_path / "outputs" / "vmas" / "hierarchical") / "metrics.csv").is_file()
+    run(next(names))
+    pettingzoo = only_child(tmp_path / "outputs" / "pettingzoo" / "hierarchical")
+    assert (pettingzoo / "metrics.csv").is_file()
 
 
 def test_the_readme_is_a_few_screens() -> None:

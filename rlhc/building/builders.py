@@ -13,7 +13,7 @@ from torchrl.envs import Compose, EnvBase, RewardSum, TransformedEnv
 from rlhc.building.normalisation import SafeVecNorm
 from rlhc.building.shaping import PotentialShaping, game_potential
 from rlhc.config.train_schema import TrainConfig
-from rlhc.envs import make_env, make_game
+from rlhc.envs import SOURCES, make_env, make_game
 from rlhc.envs.keys import EPISODE_REWARD, MANAGER_OBSERVATION, OBSERVATION, REWARD
 from rlhc.errors import ConfigError
 from rlhc.modules import (
@@ -30,8 +30,9 @@ class Layout:
     """How an update is collected and cut, in the units of ML-Agents 0.5.
 
     Attributes:
-        agents_per_world: ``n_g``, the agents of each group in one world (all groups
-            have the same size in both games).
+        agents_per_world: ``n_g``, the agents of the largest group in one world (all
+            groups have the same size in both games; a group of fewer agents collects
+            fewer experiences per update).
         num_envs: worlds simulated at once (a divisor of ``frames_per_batch``).
         frames_per_batch: world-decisions per update, ``ceil(buffer_size / n_g)``.
         steps_per_world: decisions of each world per update.
@@ -79,8 +80,8 @@ class Layout:
         n = agents_per_world
         if batch_size % n:
             raise ConfigError(
-                f"algo.batch_size={batch_size}; allowed: a multiple of {n}, the agents of a "
-                f"group in one world (a minibatch holds whole world-decisions)"
+                f"algo.batch_size={batch_size}; allowed: a multiple of {n}, the agents of the "
+                f"largest group in one world (a minibatch holds whole world-decisions)"
             )
         if buffer_size < batch_size:
             raise ConfigError(
@@ -145,12 +146,19 @@ class Layout:
 
 
 def agents_per_world(cfg: TrainConfig) -> int:
-    """Agents per group in one world of ``cfg.env`` (the same for every group)."""
+    """Agents of the largest group in one world of ``cfg.env``: the unit of
+    ``algo.buffer_size`` and ``algo.batch_size`` (agent-experiences per group).
+
+    Building the env (one world) is also where a bad environment of another library
+    fails, in one line, before a run directory is made.
+    """
+    if cfg.env.name in SOURCES:
+        env = make_env(cfg.env.name, num_envs=1, seed=0, **cfg.env.game_options())
+        sizes = [env.full_action_spec[group].shape[-1] for group in group_names(env)]
+        env.close()
+        return max(sizes)
     game = make_game(cfg.env.name, num_envs=1, seed=0, **cfg.env.game_options())
-    sizes = {spec.name: spec.num_agents for spec in game.groups}
-    if len(set(sizes.values())) != 1:
-        raise ConfigError(f"groups of different sizes are not supported: {sizes}")
-    return next(iter(sizes.values()))
+    return max(spec.num_agents for spec in game.groups)
 
 
 def make_training_env(cfg: TrainConfig, num_envs: int, seed: int) -> TransformedEnv:
@@ -184,6 +192,12 @@ def with_training_transforms(cfg: TrainConfig, base: EnvBase) -> TransformedEnv:
         # observations and a shared policy both teams' slots converge alike.
         norm = SafeVecNorm(keys, decay=cfg.algo.observation_decay, clip=cfg.algo.observation_clip)
         transforms.append(norm)
+    if isinstance(base, TransformedEnv):
+        # An env of another library comes with its contract's transforms: extend them
+        # rather than nest a second TransformedEnv.
+        for transform in transforms:
+            base.append_transform(transform)
+        return base
     return TransformedEnv(base, Compose(*transforms))
 
 

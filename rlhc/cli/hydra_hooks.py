@@ -25,12 +25,18 @@ from rlhc.cli.report import HYDRA_USER_ERRORS
 from rlhc.cli.start import checked, task_config
 from rlhc.config.evaluate_schema import EvaluateConfig
 from rlhc.config.train_schema import RESUME_AUTO
+from rlhc.errors import EnvError
 from rlhc.evaluation.commands import check_evaluation
 from rlhc.storage.checkpoint import ResumeError, run_dir_of
 from rlhc.storage.run_lock import RunDirInUse
 
 #: Errors a user fixes by changing the command line of ``rlhc.run`` (or by waiting).
-USER_ERRORS: tuple[type[BaseException], ...] = (*HYDRA_USER_ERRORS, ResumeError, RunDirInUse)
+USER_ERRORS: tuple[type[BaseException], ...] = (
+    *HYDRA_USER_ERRORS,
+    EnvError,
+    ResumeError,
+    RunDirInUse,
+)
 
 
 class PreflightFailed(BaseException):

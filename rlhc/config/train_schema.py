@@ -297,13 +297,17 @@ class TrainConfig:
 
 
 def register_configs() -> None:
-    """Register the schemas (each game's as ``env/<game>_schema``) for the yaml files."""
+    """Register the schemas (each game's as ``env/<game>_schema``, each env source's as
+    ``env/<source>_schema``) for the yaml files."""
     from rlhc.envs.registry import game_spec, games
+    from rlhc.envs.schemas import SOURCE_SCHEMAS
 
     cs = ConfigStore.instance()
     cs.store(name="train_schema", node=TrainConfig)
     for name in games():
         cs.store(group="env", name=f"{name}_schema", node=game_spec(name).env_config)
+    for name, schema in SOURCE_SCHEMAS.items():
+        cs.store(group="env", name=f"{name}_schema", node=schema)
     cs.store(group="critic", name="critic_schema", node=CriticConfig)
     cs.store(group="logger", name="logger_schema", node=LoggerConfig)
     cs.store(group="league", name="league_schema", node=LeagueConfig)

@@ -15,7 +15,7 @@ import torch.distributed as dist
 
 from rlhc.config.evaluate_schema import MODES, EvaluateConfig
 from rlhc.config.train_schema import LeagueConfig, LoggerConfig, TrainConfig
-from rlhc.envs import games
+from rlhc.envs import SOURCES, games
 from rlhc.envs.registry import shapable_games
 from rlhc.envs.tennis.rules import FAULT_PENALTIES
 from rlhc.errors import ConfigError, allowed
@@ -134,6 +134,8 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
     problems = league_problems(cfg.league)
     if problems:
         raise ConfigError("; ".join(problems))
+    if cfg.env.name in SOURCES:
+        check_source_run(cfg)
     check_logger(cfg.logger)
     check_device(cfg.device, processes)
     check_parallel(cfg.parallel, processes, cfg.device, cfg.league.active)
@@ -151,6 +153,34 @@ def validate(cfg: TrainConfig, processes: int = 1) -> None:
     if fault_penalty is not None and fault_penalty not in FAULT_PENALTIES:
         what = f"null or one of {', '.join(FAULT_PENALTIES)}"
         raise allowed("env.fault_penalty", fault_penalty, what)
+
+
+def check_source_run(cfg: TrainConfig) -> None:
+    """Refuse what needs a built-in game on an environment of another library
+    (``env=pettingzoo``, ``env=vmas``): it has no scripted team, no match rules and no
+    play diagnostics.
+
+    Raises:
+        ConfigError: naming the setting and why.
+    """
+    game_only = {
+        "eval_freq": (cfg.eval_freq, "matches against the scripted team"),
+        "play_freq": (cfg.play_freq, "the game's play diagnostics"),
+        "league": (cfg.league.active, "opponents other than the learner itself"),
+    }
+    for key, (value, what) in game_only.items():
+        if value:
+            shown = (
+                "league="
+                + ",".join(f"{name}:{share}" for name, share in cfg.league.shares.items() if share)
+                if key == "league"
+                else f"{key}={value}"
+            )
+            raise ConfigError(
+                f"{shown} on env={cfg.env.name}: it needs {what}, which only a built-in "
+                f"game ({', '.join(games())}) has; "
+                f"allowed: {'league=self_play' if key == 'league' else f'{key}=0'}"
+            )
 
 
 def check_logger(cfg: LoggerConfig) -> None:
@@ -272,6 +302,12 @@ def validate_evaluate(cfg: EvaluateConfig) -> None:
     """
     if cfg.mode not in MODES:
         raise allowed("mode", cfg.mode, ", ".join(MODES))
+    if cfg.env.name in SOURCES:
+        raise ConfigError(
+            f"env={cfg.env.name}: rlhc.evaluate plays matches, which need a built-in game "
+            f"({', '.join(games())}) with a scripted team and match rules; judge a "
+            f"{cfg.env.name} run by its returns (python -m rlhc.plot <run dir>)"
+        )
     if cfg.env.name not in games():
         raise allowed("env", cfg.env.name, ", ".join(games()))
     if cfg.matches < 1 or (cfg.env.num_envs is not None and cfg.env.num_envs < 1):

@@ -1,10 +1,11 @@
-"""The games: 2 vs 2 doubles tennis and 2 vs 2 soccer, found through the game registry.
+"""The games: 2 vs 2 doubles tennis and 2 vs 2 soccer, found through the game registry;
+and any PettingZoo or VMAS environment (:mod:`rlhc.envs.generic`).
 
 Each game is a :class:`~rlhc.envs.base.BatchedGame` (numpy, N worlds in lockstep),
 registered once in :mod:`rlhc.envs.registry` by its package, and exposed two ways:
 
 * :func:`make_env` — a batched TorchRL ``EnvBase`` (``batch_size=[num_envs]``), the
-  training path;
+  training path (also of ``pettingzoo`` and ``vmas``, the :data:`SOURCES`);
 * :func:`make_parallel_env` (or ``rlhc.envs.<game>.parallel_env()``) — a PettingZoo
   ``ParallelEnv`` of one world; :func:`make_aec_env` its AEC view.
 """
@@ -14,6 +15,10 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from rlhc.envs.registry import GAMES, GameSpec, game_spec, games, register_game
+from rlhc.envs.schemas import SOURCE_SCHEMAS
+
+#: The environments of other libraries, ``env=<name>``: :mod:`rlhc.envs.generic`.
+SOURCES: tuple[str, ...] = tuple(SOURCE_SCHEMAS)
 
 if TYPE_CHECKING:
     from pettingzoo.utils.env import AECEnv
@@ -55,10 +60,12 @@ def make_env(
     device: str = "cpu",
     **env_options: Any,
 ) -> EnvBase:
-    """A batched TorchRL env over ``num_envs`` courts/pitches of game ``name``.
+    """A batched TorchRL env over ``num_envs`` courts/pitches of game ``name`` (or worlds
+    of a :data:`SOURCES` environment: :func:`rlhc.envs.generic.make_source_env`).
 
     Args:
-        name: a registered game (:func:`~rlhc.envs.registry.games`), e.g. ``"tennis"``.
+        name: a registered game (:func:`~rlhc.envs.registry.games`), e.g. ``"tennis"``,
+            or ``"pettingzoo"`` / ``"vmas"``.
         num_envs: number of worlds simulated by the one env object (its ``batch_size``).
         seed: seed of the game's random generator.
         device: torch device of the returned tensors.
@@ -76,6 +83,10 @@ def make_env(
         >>> td["racket", "observation"].shape
         torch.Size([4, 3, 4, 8])
     """
+    if name in SOURCES:
+        from rlhc.envs.generic import make_source_env
+
+        return make_source_env(name, num_envs=num_envs, seed=seed, device=device, **env_options)
     from rlhc.envs.torchrl_adapter import BatchedGameEnv
 
     game = make_game(name, num_envs=num_envs, seed=seed, **env_options)
@@ -120,6 +131,7 @@ def make_aec_env(
 
 __all__ = [
     "GAMES",
+    "SOURCES",
     "GameSpec",
     "game_class",
     "game_spec",

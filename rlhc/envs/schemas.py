@@ -1,9 +1,11 @@
-"""Hydra schemas of the ``env`` config group (one dataclass per game).
+"""Hydra schemas of the ``env`` config group (one dataclass per game, one per env source).
 
 Fields left at ``None`` fall back to the game's own default, so the game module
 stays the single source of truth for its rules. Each game names its schema in its
 registry entry (:attr:`GameSpec.env_config <rlhc.envs.registry.GameSpec>`), which
-:func:`rlhc.config.train_schema.register_configs` stores as ``<game>_schema``.
+:func:`rlhc.config.train_schema.register_configs` stores as ``<game>_schema``; the
+environments of other libraries (:mod:`rlhc.envs.generic`: ``env=pettingzoo``,
+``env=vmas``) have theirs in :data:`SOURCE_SCHEMAS`.
 """
 
 from __future__ import annotations
@@ -75,3 +77,60 @@ class SoccerEnvConfig(EnvConfig):
     name: str = "soccer"
     striker_time_reward: float | None = None
     goalie_time_reward: float | None = None
+
+
+@dataclass
+class SourceEnvConfig(EnvConfig):
+    """Options common to the environments of other libraries (:mod:`rlhc.envs.generic`).
+
+    Attributes:
+        manager_view: what the manager critic reads of each agent: ``team`` (the agent's
+            own observation, then its group mates' in index order after it, wrapping
+            round: a centralised MAPPO critic's input), ``state`` (the environment's
+            global ``state()``, where it has one) or ``<module>:<callable>`` (a function
+            from one step's observations ``{group: [N, n_g, d_g]}`` to the manager's
+            ``{group: [N, n_g, d_m]}``).
+        groups: the agent groups, ``{group: [agent, ...]}``; ``None``: TorchRL's
+            convention (agents named ``<group>_<i>`` grouped by prefix).
+        kwargs: keyword arguments of the environment's constructor.
+        max_cycles: decisions after which an episode is truncated (``None``: only when
+            the environment itself truncates it).
+    """
+
+    manager_view: str = "team"
+    groups: Any = None  # a mapping or None (Any: an override replaces it whole)
+    kwargs: Any = None  # a mapping or None
+
+
+@dataclass
+class PettingZooEnvConfig(SourceEnvConfig):
+    """Any PettingZoo ``ParallelEnv``, ``num_envs`` copies stepped as one batch.
+
+    Attributes:
+        factory: ``<module>:<callable>`` that returns the ``ParallelEnv``, called with
+            ``kwargs``, e.g. ``mpe2.simple_spread_v3:parallel_env``.
+    """
+
+    name: str = "pettingzoo"
+    factory: str = MISSING
+
+
+@dataclass
+class VmasEnvConfig(SourceEnvConfig):
+    """Any VMAS scenario, ``num_envs`` vectorised worlds (TorchRL's ``VmasEnv``).
+
+    Attributes:
+        scenario: the VMAS scenario's name, e.g. ``navigation`` or ``balance``.
+        continuous_actions: continuous (``true``) or discrete actions.
+    """
+
+    name: str = "vmas"
+    scenario: str = MISSING
+    continuous_actions: bool = True
+
+
+#: The environments of other libraries: ``env=<name>`` -> its schema.
+SOURCE_SCHEMAS: dict[str, type[SourceEnvConfig]] = {
+    "pettingzoo": PettingZooEnvConfig,
+    "vmas": VmasEnvConfig,
+}

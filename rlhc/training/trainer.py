@@ -105,6 +105,8 @@ class Trainer:
         worlds = self.strategy.local_worlds(self.layout)
         self.env = env if env is not None else make_training_env(cfg, worlds, seed)
         self.groups = group_names(self.env)
+        #: Agents of each group in one world.
+        self.group_sizes = {g: self.env.full_action_spec[g].shape[-1] for g in self.groups}
         # Per-sample losses: every term is averaged under the learner weight (league worlds).
         self.actors, self.losses = make_agents(cfg, self.env, learner_weighted=True)
         self.policy = GroupPolicies(self.actors)
@@ -318,7 +320,7 @@ class Trainer:
             metrics.update(self.league.metrics())
         metrics["frames"] = float(self.frames)
         for group in self.groups:
-            metrics[f"{group}/experiences"] = float(self.frames * self.layout.agents_per_world)
+            metrics[f"{group}/experiences"] = float(self.frames * self.group_sizes[group])
         metrics["updates"] = float(self.iteration)
         metrics["lr"] = self.optimizer.param_groups[0]["lr"]
         first_loss = next(iter(self.losses.values()))

@@ -9,16 +9,25 @@ from hydra.errors import ConfigCompositionException
 from omegaconf.errors import ConfigKeyError, ValidationError
 
 from rlhc.config.train_schema import TrainConfig
-from rlhc.envs.schemas import SoccerEnvConfig, TennisEnvConfig
+from rlhc.envs.schemas import (
+    PettingZooEnvConfig,
+    SoccerEnvConfig,
+    TennisEnvConfig,
+    VmasEnvConfig,
+)
 
 
 @pytest.mark.parametrize("env", options("env"))
 @pytest.mark.parametrize("critic", options("critic"))
 def test_every_env_and_critic_composes(env: str, critic: str) -> None:
-    cfg = load(f"env={env}", f"critic={critic}")
+    required = {"pettingzoo": ["env.factory=mpe2.simple_spread_v3:parallel_env"],
+                "vmas": ["env.scenario=navigation"]}  # fmt: skip
+    cfg = load(f"env={env}", f"critic={critic}", *required.get(env, []))
     assert isinstance(cfg, TrainConfig)
     assert cfg.env.name == env
-    assert isinstance(cfg.env, TennisEnvConfig if env == "tennis" else SoccerEnvConfig)
+    schemas = {"tennis": TennisEnvConfig, "soccer": SoccerEnvConfig,
+               "pettingzoo": PettingZooEnvConfig, "vmas": VmasEnvConfig}  # fmt: skip
+    assert isinstance(cfg.env, schemas[env])
 
 
 @pytest.mark.parametrize("group", ["model", "logger", "experiment"])
