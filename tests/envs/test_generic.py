@@ -205,19 +205,53 @@ def test_vmas_refuses_a_state_view_and_an_unknown_scenario() -> None:
         make_env("vmas", scenario="curling")
 
 
-@pytest.mark.parametrize("critic", ["ppo", "manager", "hierarchical"])
-def test_a_vmas_run_trains(critic: str, tmp_path: Path) -> None:
-    pytest.importorskip("vmas")
+#: The peer check's tasks (benchmarks/peer_check.py): source, its option, what it needs.
+TASKS = {
+    "navigation": ("vmas", "env.scenario=navigation", "vmas"),
+    "balance": ("vmas", "env.scenario=balance", "vmas"),
+    "simple_spread": ("pettingzoo", "env.factory=mpe2.simple_spread_v3:parallel_env", "mpe2"),
+    "simple_tag": ("pettingzoo", "env.factory=mpe2.simple_tag_v3:parallel_env", "mpe2"),
+}
+#: One update of a few seconds on any of them (multiples of every group size up to 6).
+ONE_UPDATE = [
+    *(s for s in SMALL if not s.startswith(("algo.buffer_size", "algo.batch_size", "algo.max"))),
+    "algo.buffer_size=240",
+    "algo.batch_size=120",
+    "algo.max_steps=1",
+    "env.num_envs=4",
+]
+
+
+@pytest.mark.parametrize("critic", CRITICS)
+@pytest.mark.parametrize("task", list(TASKS))
+def test_every_critic_trains_on_every_named_task(task: str, critic: str, tmp_path: Path) -> None:
+    source, option, package = TASKS[task]
+    pytest.importorskip(package)
     from rlhc.training.trainer import Trainer
 
-    small = [s for s in SMALL if "buffer" not in s and "batch_size" not in s]
-    cfg = load(
-        "env=vmas",
-        "env.scenario=balance",
-        f"critic={critic}",
-        *small,
-        "algo.buffer_size=288",
-        "algo.batch_size=144",  # balance: 3 agents
-    )
+    cfg = load(f"env={source}", option, f"critic={critic}", *ONE_UPDATE)
+    validate(cfg)
     metrics = Trainer(cfg, tmp_path).train()
-    assert metrics["frames"] == 96
+    losses = [value for key, value in metrics.items() if key.endswith("/loss_objective")]
+    assert losses and all(torch.isfinite(torch.tensor(losses)))
+    assert metrics["frames"] == Layout.from_config(cfg).frames_per_batch
+
+
+def test_a_vmas_run_resumes_and_plots(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("vmas")
+    from cli_runs import run_in_process, steps
+
+    from rlhc import plot
+
+    run_dir = tmp_path / "run"
+    small = [s for s in ONE_UPDATE if not s.startswith(("algo.max_steps", "logger.summary"))]
+    args = ["env=vmas", "env.scenario=navigation", *small, "logger.summary_freq=60"]
+    args.append(f"hydra.run.dir={run_dir}")
+    assert run_in_process([*args, "algo.max_steps=60"], tmp_path, monkeypatch, capsys).code == 0
+    resumed = [*args, "algo.max_steps=120", f"resume={run_dir}"]
+    assert run_in_process(resumed, tmp_path, monkeypatch, capsys).code == 0
+    assert steps(run_dir) == [60, 120]
+    plot.main([str(run_dir), "--out", str(tmp_path / "curves.png")])
+    assert (tmp_path / "curves.png").stat().st_size > 0
