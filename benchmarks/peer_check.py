@@ -39,6 +39,7 @@ import csv
 import json
 import math
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -145,7 +146,9 @@ def rlhc_overrides(task: str) -> list[str]:
 
 
 # --- running ------------------------------------------------------------------------------
-def command(job: Job) -> list[str]:
+def command(job: Job, directory: Path | None = None) -> list[str]:
+    """The command line that trains ``job`` into ``directory`` (its own by default)."""
+    directory = directory or job.directory
     if job.implementation == "benchmarl":
         return [
             str(PEER_VENV / "bin" / "python"),
@@ -154,7 +157,7 @@ def command(job: Job) -> list[str]:
             f"--algorithm={job.algorithm}",
             f"--seed={job.seed}",
             f"--frames={job.frames}",
-            f"--out={job.directory}",
+            f"--out={directory}",
         ]
     return [
         sys.executable,
@@ -169,49 +172,55 @@ def command(job: Job) -> list[str]:
         "logger.backends=[csv]",
         "logger.progress=false",
         "resume=auto",
-        f"hydra.run.dir={job.directory}",
+        f"hydra.run.dir={directory}",
     ]
 
 
-def run_job(job: Job) -> str:
-    done = job.directory / "done.json"
+def run_job(job: Job, directory: Path | None = None) -> str:
+    """Train ``job`` into ``directory`` (its own by default) unless it is done there."""
+    directory = directory or job.directory
+    done = directory / "done.json"
     if done.exists():
         return f"{job}: done before"
-    if job.implementation == "benchmarl" and job.directory.exists():
-        for stale in job.directory.rglob("*"):  # BenchMARL starts again
-            if stale.is_file():
-                stale.unlink()
-    job.directory.mkdir(parents=True, exist_ok=True)
+    if job.implementation == "benchmarl" and directory.exists():
+        shutil.rmtree(directory)  # BenchMARL starts again
+    directory.mkdir(parents=True, exist_ok=True)
     env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
     start = time.perf_counter()
-    with (job.directory / "stdout.log").open("a") as log:
+    with (directory / "stdout.log").open("a") as log:
         result = subprocess.run(
-            command(job), stdout=log, stderr=subprocess.STDOUT, env=env, cwd=ROOT
+            command(job, directory), stdout=log, stderr=subprocess.STDOUT, env=env, cwd=ROOT
         )
     seconds = time.perf_counter() - start
     if result.returncode != 0:
-        return f"{job}: FAILED ({result.returncode}), see {job.directory / 'stdout.log'}"
+        return f"{job}: FAILED ({result.returncode}), see {directory / 'stdout.log'}"
     if job.implementation == "rlhc":
-        write_rlhc_curve(job.directory)
+        write_rlhc_curve(directory)
     done.write_text(json.dumps({"frames": job.frames, "seconds": seconds}) + "\n")
     return f"{job}: {seconds:.0f} s"
 
 
 def write_rlhc_curve(directory: Path) -> None:
-    """``curve.csv`` (frames and each group's mean return) from the run's ``metrics.csv``."""
+    """``curve.csv`` (frames, seconds, each group's mean return) from ``metrics.csv``."""
     with (directory / "metrics.csv").open() as file:
         rows = list(csv.DictReader(file))
     groups = sorted(key.split("/")[0] for key in rows[0] if key.endswith("/cumulative_reward"))
     with (directory / "curve.csv").open("w", newline="") as file:
         writer = csv.writer(file)
-        writer.writerow(["frames", *groups])
+        writer.writerow(["frames", "seconds", *groups])
         for row in rows:
-            writer.writerow(
-                [row["frames"], *(row.get(f"{g}/cumulative_reward", "") for g in groups)]
-            )
+            returns = (row.get(f"{g}/cumulative_reward", "") for g in groups)
+            writer.writerow([row["frames"], row["wall_time"], *returns])
 
 
-def run(args: argparse.Namespace) -> None:
+def steady_rate(directory: Path) -> float:
+    """Frames per second between the first and the last update (start-up left out)."""
+    frames, seconds, _ = read_curve(directory)
+    return (frames[-1] - frames[0]) / (seconds[-1] - seconds[0])
+
+
+def check_peer_venv() -> None:
+    """Exit 2 with one line if ``install`` has not made the peer's environment."""
     if not (PEER_VENV / "bin" / "python").exists():
         print(
             f"peer_check: error: {PEER_VENV} is missing; create it with "
@@ -219,6 +228,10 @@ def run(args: argparse.Namespace) -> None:
             file=sys.stderr,
         )
         raise SystemExit(2)
+
+
+def run(args: argparse.Namespace) -> None:
+    check_peer_venv()
     jobs = [
         Job(task, algorithm, implementation, seed, args.frames)
         for seed in args.seeds
@@ -234,12 +247,18 @@ def run(args: argparse.Namespace) -> None:
 
 
 # --- the report ---------------------------------------------------------------------------
-def read_curve(directory: Path) -> tuple[list[float], dict[str, list[float]]]:
+def read_curve(directory: Path) -> tuple[list[float], list[float], dict[str, list[float]]]:
+    """Frames, seconds and each group's mean return, per update."""
     with (directory / "curve.csv").open() as file:
         rows = list(csv.DictReader(file))
     frames = [float(row["frames"]) for row in rows]
-    groups = {key: [float(row[key] or "nan") for row in rows] for key in rows[0] if key != "frames"}
-    return frames, groups
+    seconds = [float(row["seconds"]) for row in rows]
+    groups = {
+        key: [float(row[key] or "nan") for row in rows]
+        for key in rows[0]
+        if key not in ("frames", "seconds")
+    }
+    return frames, seconds, groups
 
 
 def score(values: Sequence[float]) -> float:
@@ -267,11 +286,12 @@ def report(args: argparse.Namespace) -> None:
             per_seed: dict[str, list[float]] = {}
             speeds = []
             for seed in seeds:
-                _, groups = read_curve(seed)
+                if arm.name.startswith("rlhc"):
+                    write_rlhc_curve(seed)  # derived from the committed metrics.csv
+                _, _, groups = read_curve(seed)
                 for group, values in groups.items():
                     per_seed.setdefault(group, []).append(score(values))
-                done = json.loads((seed / "done.json").read_text())
-                speeds.append(done["frames"] / done["seconds"])
+                speeds.append(steady_rate(seed))
             summary[f"{task_dir.name}/{arm.name}"] = {
                 "seeds": [int(s.name.split("_")[1]) for s in seeds],
                 "frames": json.loads((seeds[0] / "done.json").read_text())["frames"],
@@ -332,7 +352,7 @@ def plot(summary: dict[str, dict[str, Any]]) -> None:
             n = min(len(c[0]) for c in curves)
             # One line per arm: the mean over seeds of the mean over groups.
             mean = [
-                statistics.fmean(statistics.fmean(g[i] for g in c[1].values()) for c in curves)
+                statistics.fmean(statistics.fmean(g[i] for g in c[2].values()) for c in curves)
                 for i in range(n)
             ]
             style = "-" if arm_dir.name.startswith("rlhc") else "--"
@@ -343,6 +363,38 @@ def plot(summary: dict[str, dict[str, Any]]) -> None:
         axis.legend(fontsize=7)
     figure.tight_layout()
     figure.savefig(RESULTS / "curves.png", dpi=110)
+
+
+def speed(args: argparse.Namespace) -> None:
+    """Frames per second of both sides on one task, one process at a time, rounds
+    interleaved (the order alternates), written to ``speed.json``."""
+    check_peer_venv()
+    rates: dict[str, list[float]] = {implementation: [] for implementation in IMPLEMENTATIONS}
+    scratch = ROOT / "benchmarks" / "results" / "tmp" / "peer_speed"
+    for round_ in range(args.rounds):
+        order = IMPLEMENTATIONS if round_ % 2 == 0 else IMPLEMENTATIONS[::-1]
+        for implementation in order:
+            job = Job(args.task, args.algorithm, implementation, seed=0, frames=args.frames)
+            directory = scratch / f"round_{round_}_{implementation}"
+            if directory.exists():
+                shutil.rmtree(directory)
+            print(run_job(job, directory), flush=True)
+            rates[implementation].append(steady_rate(directory))
+    result = {
+        "task": args.task,
+        "algorithm": args.algorithm,
+        "frames": args.frames,
+        "frames_per_s": rates,
+        "median": {key: statistics.median(values) for key, values in rates.items()},
+        "ratio_per_round": [
+            ours / peer for ours, peer in zip(rates["rlhc"], rates["benchmarl"], strict=True)
+        ],
+        "date": time.strftime("%Y-%m-%d"),
+    }
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    name = f"speed_{args.task.replace('/', '_')}_{args.algorithm}.json"
+    (RESULTS / name).write_text(json.dumps(result, indent=2) + "\n")
+    print(json.dumps(result["median"]), "ratio per round:", result["ratio_per_round"])
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -361,8 +413,15 @@ def main(argv: Sequence[str] | None = None) -> None:
     runner.add_argument("--frames", type=int, default=3_000_000)
     runner.add_argument("--jobs", type=int, default=2, help="processes at once (one per core)")
     commands.add_parser("report", help="summary.json, table.md and curves.png of finished runs")
+    timer = commands.add_parser("speed", help="frames/s of both sides, rounds interleaved")
+    timer.add_argument("--task", choices=TASKS, default="vmas/navigation")
+    timer.add_argument("--algorithm", choices=sorted(ALGORITHMS), default="mappo")
+    timer.add_argument("--frames", type=int, default=60_000)
+    timer.add_argument("--rounds", type=int, default=2)
     args = parser.parse_args(argv)
-    {"install": lambda _: install(), "run": run, "report": report}[args.command](args)
+    {"install": lambda _: install(), "run": run, "report": report, "speed": speed}[args.command](
+        args
+    )
 
 
 if __name__ == "__main__":

@@ -55,25 +55,33 @@ def test_both_sides_train_the_same_task_at_benchmarl_settings(
 def test_an_rlhc_curve_is_each_groups_return_per_update(tmp_path: Path) -> None:
     with (tmp_path / "metrics.csv").open("w", newline="") as file:
         writer = csv.writer(file)
-        writer.writerow(["step", "agents/cumulative_reward", "agents/entropy", "frames"])
-        writer.writerows([[6000, -0.5, 1.3, 6000], [12000, -0.25, 1.2, 12000]])
+        writer.writerow(["step", "agents/cumulative_reward", "frames", "wall_time"])
+        writer.writerows([[6000, -0.5, 6000, 4.0], [12000, -0.25, 12000, 7.0]])
     peer_check.write_rlhc_curve(tmp_path)
     assert (tmp_path / "curve.csv").read_text().splitlines() == [
-        "frames,agents",
-        "6000,-0.5",
-        "12000,-0.25",
+        "frames,seconds,agents",
+        "6000,4.0,-0.5",
+        "12000,7.0,-0.25",
     ]
+    assert peer_check.steady_rate(tmp_path) == 2000.0
 
 
 def fake_run(root: Path, arm: str, seed: int, returns: list[float], seconds: float) -> None:
+    """A finished run: one update of 6,000 frames every ``seconds``."""
     directory = root / "runs" / "vmas_navigation" / arm / f"seed_{seed}"
     directory.mkdir(parents=True)
-    with (directory / "curve.csv").open("w", newline="") as file:
-        writer = csv.writer(file)
-        writer.writerow(["frames", "agents"])
-        writer.writerows([[6000 * (i + 1), r] for i, r in enumerate(returns)])
-    frames = 6000 * len(returns)
-    (directory / "done.json").write_text(json.dumps({"frames": frames, "seconds": seconds}))
+    rows = [(6000 * (i + 1), seconds * (i + 1), r) for i, r in enumerate(returns)]
+    if arm.startswith("rlhc"):
+        with (directory / "metrics.csv").open("w", newline="") as file:
+            writer = csv.writer(file)
+            writer.writerow(["frames", "wall_time", "agents/cumulative_reward"])
+            writer.writerows(rows)
+    else:
+        with (directory / "curve.csv").open("w", newline="") as file:
+            writer = csv.writer(file)
+            writer.writerow(["frames", "seconds", "agents"])
+            writer.writerows(rows)
+    (directory / "done.json").write_text(json.dumps({"frames": rows[-1][0], "seconds": 1.0}))
 
 
 def test_the_report_scores_the_last_five_updates_against_the_peers_interval(
@@ -85,17 +93,42 @@ def test_the_report_scores_the_last_five_updates_against_the_peers_interval(
     # 2 +- 4.303; rlhc: 2.0 (within) for ippo, -10 (below) for mappo.
     for seed, level in enumerate([1.0, 2.0, 3.0]):
         for algorithm in ("ippo", "mappo"):
-            fake_run(tmp_path, f"benchmarl_{algorithm}", seed, [-5.0] + [level] * 5, seconds=60.0)
-        fake_run(tmp_path, "rlhc_ippo", seed, [-5.0] + [2.0] * 5, seconds=20.0)
-        fake_run(tmp_path, "rlhc_mappo", seed, [-5.0] + [-10.0] * 5, seconds=20.0)
+            fake_run(tmp_path, f"benchmarl_{algorithm}", seed, [-5.0] + [level] * 5, seconds=3.0)
+        fake_run(tmp_path, "rlhc_ippo", seed, [-5.0] + [2.0] * 5, seconds=1.0)
+        fake_run(tmp_path, "rlhc_mappo", seed, [-5.0] + [-10.0] * 5, seconds=1.0)
     peer_check.main(["report"])
     summary = json.loads((tmp_path / "summary.json").read_text())
     peer = summary["vmas_navigation/benchmarl_ippo"]["score"]["agents"]
     assert peer["mean"] == pytest.approx(2.0)
     assert peer["low"] == pytest.approx(2.0 - 4.303 / 3**0.5)
-    assert summary["vmas_navigation/rlhc_ippo"]["frames_per_s"] == pytest.approx(36000 / 20)
+    assert summary["vmas_navigation/rlhc_ippo"]["frames_per_s"] == pytest.approx(6000)
     rows = (tmp_path / "table.md").read_text().splitlines()[2:]
     assert [row.split(" | ")[1] for row in rows] == ["ippo", "mappo"]
-    assert "within or above" in rows[0] and "1,800 / 600" in rows[0]
+    assert "within or above" in rows[0] and "6,000 / 2,000" in rows[0]
     assert f"below by {(2.0 - 4.303 / 3**0.5) + 10:.3f}" in rows[1]
     assert (tmp_path / "curves.png").stat().st_size > 0
+
+
+def test_speed_alternates_the_sides_and_writes_their_ratio_per_round(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(peer_check, "RESULTS", tmp_path)
+    monkeypatch.setattr(peer_check, "ROOT", tmp_path)
+    monkeypatch.setattr(peer_check, "check_peer_venv", lambda: None)
+    order = []
+
+    def fake_job(job: peer_check.Job, directory: Path) -> str:
+        order.append(job.implementation)
+        directory.mkdir(parents=True)
+        per_update = 1.0 if job.implementation == "rlhc" else 4.0
+        (directory / "curve.csv").write_text(
+            f"frames,seconds,agents\n6000,{per_update},0\n12000,{2 * per_update},0\n"
+        )
+        return str(job)
+
+    monkeypatch.setattr(peer_check, "run_job", fake_job)
+    peer_check.main(["speed", "--frames", "12000", "--rounds", "2"])
+    assert order == ["rlhc", "benchmarl", "benchmarl", "rlhc"]
+    result = json.loads((tmp_path / "speed_vmas_navigation_mappo.json").read_text())
+    assert result["median"] == {"rlhc": 6000.0, "benchmarl": 1500.0}
+    assert result["ratio_per_round"] == [4.0, 4.0]
