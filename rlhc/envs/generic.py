@@ -120,8 +120,6 @@ class AgentContract(Transform):
 
     # --- specs ---------------------------------------------------------------------------
     def transform_observation_spec(self, observation_spec: Composite) -> Composite:
-        parent = self.parent
-        assert parent is not None
         batch = observation_spec.shape
         observations = {}
         for group in self.groups:
@@ -134,7 +132,7 @@ class AgentContract(Transform):
                     "shape [..., agents, size])"
                 )
             observations[group] = leaf.zero()
-            info = spec.get("info", None)
+            info = spec.get(INFO, None)
             self._info[group] = [
                 key
                 for key, value in (info.items() if isinstance(info, Composite) else ())
