@@ -53,10 +53,15 @@ from typing import Any
 ROOT = Path(__file__).resolve().parent.parent
 PEER_VENV = ROOT / ".venv-peer"
 RESULTS = ROOT / "benchmarks" / "results" / "peer"
-#: What ``install`` puts in the peer's environment (torch first: the CPU wheel, as make install).
+#: What ``install`` puts in the peer's environment (torch first: the CPU wheel, as make
+#: install). BenchMARL's MPE tasks are TorchRL's ``PettingZooEnv(task=...)``, which finds
+#: them in ``pettingzoo.mpe``: PettingZoo 1.24.3 is the last release that has it (MPE now
+#: lives in ``mpe2``, which this package's runs use: mpe2 1.1.1 adds type annotations and
+#: opt-in options (curriculum, nearest neighbours) and is the same simulation with them off,
+#: as a diff of simple_spread, simple_tag and the core shows).
 PEER_PACKAGES = (
     ("torch==2.13.0",),
-    ("benchmarl==1.5.2", "vmas==1.5.2", "mpe2==1.1.1", "torch==2.13.0"),
+    ("benchmarl==1.5.2", "vmas==1.5.2", "pettingzoo[mpe]==1.24.3", "torch==2.13.0"),
 )
 #: BenchMARL's base_experiment.yaml, on-policy: frames per update and per minibatch, worlds.
 FRAMES_PER_UPDATE, FRAMES_PER_MINIBATCH, WORLDS = 6000, 400, 10
