@@ -352,16 +352,17 @@ def _manager_view(manager_view: str) -> str | ManagerView:
 def _check_pettingzoo(env: Any, factory: str) -> None:
     """Refuse, in one line, a PettingZoo env whose spaces the networks cannot use."""
     from gymnasium import spaces
+    from pettingzoo import AECEnv
 
+    if isinstance(env, AECEnv):
+        raise ConfigError(
+            f"env.factory={factory!r} returned an AEC env ({type(env).__name__}); allowed: "
+            "a ParallelEnv (PettingZoo's aec_to_parallel converts one)"
+        )
     if not hasattr(env, "possible_agents") or not hasattr(env, "observation_space"):
         raise ConfigError(
             f"env.factory={factory!r} returned a {type(env).__name__}; allowed: a "
             "PettingZoo ParallelEnv"
-        )
-    if not hasattr(env, "state_space") and hasattr(env, "agent_selection"):
-        raise ConfigError(
-            f"env.factory={factory!r} returned an AEC env ({type(env).__name__}); allowed: "
-            "a ParallelEnv (PettingZoo's aec_to_parallel converts one)"
         )
     for agent in env.possible_agents:
         observation = env.observation_space(agent)

@@ -104,6 +104,7 @@ def test_the_layout_counts_the_largest_group() -> None:
         (f"{TINY}:missing", "has no attribute 'missing'"),
         (f"{TINY}", "allowed: <module>:<callable>"),
         (f"{TINY}:dict_observations", "agent 'blue_0' observes Dict"),
+        ("rlhc.envs.tennis:env", "returned an AEC env"),
         (f"{TINY}:multi_discrete_actions", "agent 'red_0' acts in MultiDiscrete"),
     ],
 )
