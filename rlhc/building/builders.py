@@ -271,6 +271,7 @@ def make_agents(
             normalize_advantage=cfg.algo.normalize_advantage and not learner_weighted,
             reduction="none" if learner_weighted else "mean",
             manager_diagnostics=cfg.critic.manager_diagnostics,
+            worker_diagnostics=cfg.critic.worker_diagnostics,
             # Collected batches are trajectories: the critics run once per batch.
             shifted=True,
             max_importance_ratio=cfg.algo.max_importance_ratio,

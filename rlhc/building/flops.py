@@ -44,7 +44,9 @@ def linear_macs(module: nn.Module) -> int:
 class GroupFlops:
     """Forward FLOP of one group's networks per world-decision (all its agents).
 
-    ``manager_critic`` is 0 where it is not run (PPO without ``critic.manager_diagnostics``).
+    A critic that is not run counts 0: ``manager_critic`` under PPO without
+    ``critic.manager_diagnostics``, ``worker_critic`` under ``critic=manager`` without
+    ``critic.worker_diagnostics``.
     """
 
     agents: int
@@ -85,11 +87,15 @@ def network_flops(cfg: TrainConfig, env: EnvBase | None = None) -> dict[str, Gro
     for group, loss in losses.items():
         agents, _ = observation_size(env, group)
         estimator = loss.value_estimator
-        networks = {"actor": loss.actor_network, "worker_critic": estimator.worker_value_network}
+        networks = {"actor": loss.actor_network}
+        if estimator.runs_worker:
+            networks["worker_critic"] = estimator.worker_value_network
         if estimator.runs_manager:
             networks["manager_critic"] = estimator.manager_value_network
         counts = {name: FLOP_PER_MAC * agents * linear_macs(net) for name, net in networks.items()}
-        flops[group] = GroupFlops(agents=agents, **{"manager_critic": 0} | counts)
+        flops[group] = GroupFlops(
+            agents=agents, **{"worker_critic": 0, "manager_critic": 0} | counts
+        )
     return flops
 
 

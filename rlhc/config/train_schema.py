@@ -45,6 +45,8 @@ class CriticConfig:
         manager_view: the second critic reads the manager's observation (RLHC); ``false``:
             the *twin* control (``critic=twin``), a second critic on the worker's own view.
         manager_diagnostics: with ``fusion=local`` (PPO), still train and log the manager critic.
+        worker_diagnostics: with ``fusion=manager`` (consulted every step), still train and
+            log the worker critic, which ``V_hat`` does not read.
     """
 
     fusion: str = "max"
@@ -52,6 +54,7 @@ class CriticConfig:
     manager_interval: int = measured_in("decisions", 1)
     manager_view: bool = True
     manager_diagnostics: bool = False
+    worker_diagnostics: bool = False
 
 
 @dataclass

@@ -100,7 +100,9 @@ class HierarchicalPPOLoss(ClipPPOLoss):
     and ``loss_manager_critic`` (the two terms, reduced as ``reduction`` says) and
     ``explained_variance_worker`` / ``_manager``. Only :data:`LOSS_KEYS` carry gradient.
     Under ``"local"`` fusion without ``manager_diagnostics`` the manager critic is
-    neither evaluated nor trained, and its two entries are absent. Validity masks
+    neither evaluated nor trained, and its two entries are absent; so is the worker
+    critic under ``"manager"`` fusion without ``worker_diagnostics`` (the terms then
+    read ``c * d(V_target, V_m)``). Validity masks
     (TorchRL's ``loss_mask_key``) are not read: the learner weight plays that part
     (:func:`~rlhc.objectives.weighting.learner_weighted_loss`).
 
@@ -318,10 +320,11 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             "entropy": entropy.detach().mean(),
             "loss_entropy": -self.entropy_coeff * entropy,
         }
-        # loss_critic: both critics' networks on their observations.
-        worker = self.critic_network[0]
-        worker_value = worker.module(*(tensordict.get(key) for key in worker.in_keys))
-        manager_value = None
+        # loss_critic: the critics' networks that run, on their observations.
+        worker_value = manager_value = None
+        if estimator.runs_worker:
+            worker = self.critic_network[0]
+            worker_value = worker.module(*(tensordict.get(key) for key in worker.in_keys))
         if estimator.runs_manager:
             manager = self.critic_network[1]
             manager_value = manager.module(*(tensordict.get(key) for key in manager.in_keys))
@@ -351,19 +354,23 @@ class HierarchicalPPOLoss(ClipPPOLoss):
                 "(loss.value_estimator(data)) or let forward run it"
             )
         # On a selection, so that values with gradient never land in the caller's data;
-        # PPO ("local" fusion) leaves the manager critic out unless asked to run it.
-        critics = self.critic_network if estimator.runs_manager else self.critic_network[0]
+        # PPO ("local" fusion) leaves the manager critic out unless asked to run it, and
+        # "manager" fusion the worker critic.
+        critics = self.critic_network
+        if not (estimator.runs_worker and estimator.runs_manager):
+            critics = critics[0 if estimator.runs_worker else 1]
         values = critics(tensordict.select(*critics.in_keys, strict=False))
-        worker_value = values.get(tk.worker_value)
+        worker_value = values.get(tk.worker_value, None)
         manager_value = values.get(tk.manager_value, None)
         loss, self._critic_split = self._critic_terms(tensordict, worker_value, manager_value)
         explained = self._critic_split.pop(EXPLAINED_VARIANCE)
         return loss, None, explained
 
     def _critic_terms(
-        self, tensordict: TensorDictBase, worker_value: Tensor, manager_value: Tensor | None
+        self, tensordict: TensorDictBase, worker_value: Tensor | None, manager_value: Tensor | None
     ) -> tuple[Tensor, dict[str, Tensor]]:
-        """The unreduced critic loss, and its per-critic terms and explained variances."""
+        """The unreduced critic loss, and its per-critic terms and explained variances
+        (``None``: a critic that does not run)."""
         tk = self.tensor_keys
         target = tensordict.get(tk.value_target).detach()
         with torch.no_grad():
@@ -373,18 +380,19 @@ class HierarchicalPPOLoss(ClipPPOLoss):
         # League worlds: the variances over the learner's experiences only.
         learner = tensordict.get(tk.learner, None)
         weight = learner.reshape(target.shape).to(target.dtype) if learner is not None else None
-        loss = self.critic_coeff * distance_loss(target, worker_value, self.loss_critic_type)
-        split = {
-            LOSS_WORKER_CRITIC: loss.detach(),
-            EXPLAINED_VARIANCE_WORKER: explained_variance(target, worker_value, weight),
-        }
-        if manager_value is not None:
-            manager = self.critic_coeff * distance_loss(
-                target, manager_value, self.loss_critic_type
-            )
-            split[LOSS_MANAGER_CRITIC] = manager.detach()
-            split[EXPLAINED_VARIANCE_MANAGER] = explained_variance(target, manager_value, weight)
-            loss = loss + manager
+        terms = []
+        split = {}
+        for value, loss_key, variance_key in (
+            (worker_value, LOSS_WORKER_CRITIC, EXPLAINED_VARIANCE_WORKER),
+            (manager_value, LOSS_MANAGER_CRITIC, EXPLAINED_VARIANCE_MANAGER),
+        ):
+            if value is None:
+                continue
+            term = self.critic_coeff * distance_loss(target, value, self.loss_critic_type)
+            terms.append(term)
+            split[loss_key] = term.detach()
+            split[variance_key] = explained_variance(target, value, weight)
+        loss = terms[0] if len(terms) == 1 else terms[0] + terms[1]
         split[EXPLAINED_VARIANCE] = explained_variance(target, fused, weight)
         return loss, split
 
@@ -407,6 +415,7 @@ def make_ppo_loss(
     loss_critic_type: str = "l2",
     reduction: str = "mean",
     manager_diagnostics: bool = False,
+    worker_diagnostics: bool = False,
     shifted: bool = False,
     max_importance_ratio: float | None = None,
 ) -> HierarchicalPPOLoss:
@@ -434,6 +443,8 @@ def make_ppo_loss(
             :func:`~rlhc.objectives.weighting.learner_weighted_loss`, as the trainer does.
         manager_diagnostics: under ``fusion="local"`` (PPO), still run and train the
             manager critic (for its logged value).
+        worker_diagnostics: under ``fusion="manager"`` consulted at every step (a
+            centralised critic, MAPPO's), still run and train the worker critic.
         shifted: the data are a collector's trajectories: the critics run once per batch
             (see :class:`~rlhc.objectives.value.HierarchicalValueEstimator`).
         max_importance_ratio: cap of the ratio ``pi / pi_old`` in the surrogate
@@ -500,6 +511,7 @@ def make_ppo_loss(
             manager_interval=manager_interval,
             group=group,
             manager_diagnostics=manager_diagnostics,
+            worker_diagnostics=worker_diagnostics,
             shifted=shifted,
         )
     )

@@ -95,6 +95,9 @@ class FusedValue(TensorDictModuleBase):
         step_count_key: the episode step counter, read when ``manager_interval > 1``.
         manager_diagnostics: under ``"local"`` fusion, run the manager critic anyway
             (``V_hat`` does not read it); every other fusion runs it.
+        worker_diagnostics: under ``"manager"`` fusion consulted at every step, run the
+            worker critic anyway (``V_hat`` does not read it); every other fusion, and
+            ``"manager"`` with ``manager_interval > 1``, runs it.
 
     Raises:
         ValueError: unknown ``fusion``, ``weight`` outside ``[0, 1]`` or
@@ -123,6 +126,7 @@ class FusedValue(TensorDictModuleBase):
         manager_selected_key: NestedKey = keys.MANAGER_SELECTED,
         step_count_key: NestedKey = keys.STEP_COUNT,
         manager_diagnostics: bool = True,
+        worker_diagnostics: bool = True,
     ) -> None:
         check_fusion(fusion, weight)
         check_manager_interval(manager_interval)
@@ -137,8 +141,14 @@ class FusedValue(TensorDictModuleBase):
         self.step_count_key = step_count_key
         #: Whether the manager critic runs: all but ``"local"`` without diagnostics.
         self.runs_manager = fusion != "local" or manager_diagnostics
+        #: Whether the worker critic runs: all but ``"manager"`` at every step without
+        #: diagnostics (where the manager is not consulted, ``V_hat = V_w``).
+        self.runs_worker = fusion != "manager" or manager_interval > 1 or worker_diagnostics
+        self.worker_value_key, self.manager_value_key = worker_value_key, manager_value_key
         #: The critics run, each with the key it writes.
-        self.critics = [(worker_value_network, worker_value_key)]
+        self.critics = []
+        if self.runs_worker:
+            self.critics.append((worker_value_network, worker_value_key))
         if self.runs_manager:
             self.critics.append((manager_value_network, manager_value_key))
         in_keys = [key for network, _ in self.critics for key in network.in_keys]
@@ -157,11 +167,12 @@ class FusedValue(TensorDictModuleBase):
             _require(data, self.step_count_key, "the episode step counter", under=under)
 
     def fuse(
-        self, data: TensorDictBase, worker_value: Tensor, manager_value: Tensor | None = None
+        self, data: TensorDictBase, worker_value: Tensor | None, manager_value: Tensor | None
     ) -> tuple[Tensor, Tensor]:
         """``(V_hat, manager_share)`` of two value tensors at the steps of ``data``, as
         :func:`~rlhc.objectives.functional.fuse_values`; ``(V_w, 0)`` where the manager is
-        not run (``manager_value=None``). ``data`` is read for ``step_count`` only, when
+        not run (``manager_value=None``), ``(V_m, 1)`` where the worker is not
+        (``worker_value=None``). ``data`` is read for ``step_count`` only, when
         ``manager_interval > 1``.
 
         Examples:
@@ -174,7 +185,10 @@ class FusedValue(TensorDictModuleBase):
             tensor([1., 0.])
         """
         if manager_value is None:
+            assert worker_value is not None, "fuse() needs at least one critic's values"
             return worker_value, torch.zeros_like(worker_value)
+        if worker_value is None:
+            return manager_value, torch.ones_like(manager_value)
         consulted = None
         if self.manager_interval > 1:
             step_count = _require(data, self.step_count_key, "the episode step counter")
@@ -198,8 +212,10 @@ class FusedValue(TensorDictModuleBase):
             ValueError: the critics' values have different shapes.
         """
         self.require_inputs(tensordict)
-        values = [network(tensordict).get(key) for network, key in self.critics]
-        fused, share = self.fuse(tensordict, *values)
+        values = {key: network(tensordict).get(key) for network, key in self.critics}
+        fused, share = self.fuse(
+            tensordict, values.get(self.worker_value_key), values.get(self.manager_value_key)
+        )
         tensordict.set(self.value_key, fused)
         tensordict.set(self.manager_selected_key, share)
         return tensordict
@@ -238,6 +254,8 @@ class HierarchicalValueEstimator(GAE):
         skip_existing: forwarded to the critics, as in TorchRL's estimators.
         manager_diagnostics: under ``"local"`` fusion, run the manager critic anyway;
             by default PPO leaves it out, and the loss then does not train it.
+        worker_diagnostics: under ``"manager"`` fusion (consulted at every step), run
+            the worker critic anyway; by default it is left out and not trained.
         shifted: the data are a collector's trajectories (``"next"`` of step ``t`` is the
             root of ``t + 1`` unless an episode ended or was cut after ``t``): the critics
             run once on the root observations, and on ``"next"`` only after a ``done`` and
@@ -331,6 +349,7 @@ class HierarchicalValueEstimator(GAE):
         time_dim: int | None = None,
         skip_existing: bool | None = None,
         manager_diagnostics: bool = False,
+        worker_diagnostics: bool = False,
         shifted: bool = False,
     ) -> None:
         super().__init__(
@@ -350,6 +369,7 @@ class HierarchicalValueEstimator(GAE):
         self.weight = float(weight)
         self.manager_interval = manager_interval
         self.manager_diagnostics = manager_diagnostics
+        self.worker_diagnostics = worker_diagnostics
         self.group = group
         if group is not None:
             defaults = self.default_keys()
@@ -374,6 +394,11 @@ class HierarchicalValueEstimator(GAE):
         """Whether the manager critic is evaluated (see :class:`FusedValue`)."""
         return self.fused_value().runs_manager
 
+    @property
+    def runs_worker(self) -> bool:
+        """Whether the worker critic is evaluated (see :class:`FusedValue`)."""
+        return self.fused_value().runs_worker
+
     def fused_value(self) -> FusedValue:
         """The critics and their fusion as one :class:`FusedValue` on this estimator's
         keys; rebuilt only after :meth:`set_keys` or a fusion setting changed."""
@@ -388,6 +413,7 @@ class HierarchicalValueEstimator(GAE):
             "manager_selected_key": tk.manager_selected,
             "step_count_key": tk.step_count,
             "manager_diagnostics": self.manager_diagnostics,
+            "worker_diagnostics": self.worker_diagnostics,
         }
         if self._fused is None or self._fused[0] != options:
             self._fused = (options, FusedValue(*self._critics, **options))

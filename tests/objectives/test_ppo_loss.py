@@ -321,31 +321,44 @@ def test_separate_losses_is_refused(networks: Callable) -> None:
         HierarchicalPPOLoss(actor, worker, manager, separate_losses=True)
 
 
-def test_ppo_neither_runs_nor_trains_the_manager_unless_asked(networks: Callable) -> None:
-    # fusion="local" (PPO): the actor's and the worker critic's gradients are those of
-    # the loss that also trains the manager (manager_diagnostics=True); the manager
-    # gets none, and no manager term is reported.
-    ppo = build_loss(networks, fusion="local")
-    kept = build_loss(networks, fusion="local", manager_diagnostics=True)
-    data = collected(ppo)
+#: fusion -> the critic its V_hat does not read: (its module index, its name, the switch
+#: that trains it anyway).
+LEFT_OUT = {
+    "local": (1, "manager", "manager_diagnostics"),
+    "manager": (0, "worker", "worker_diagnostics"),
+}
+
+
+@pytest.mark.parametrize("fusion", sorted(LEFT_OUT))
+def test_the_critic_a_fusion_ignores_is_neither_run_nor_trained_unless_asked(
+    networks: Callable, fusion: str
+) -> None:
+    # PPO ("local") and the centralised critic ("manager"): the actor's and the other
+    # critic's gradients are those of the loss that trains both critics (the switch
+    # on); the left-out critic gets none, and none of its terms is reported.
+    index, name, switch = LEFT_OUT[fusion]
+    lean = build_loss(networks, fusion=fusion)
+    kept = build_loss(networks, fusion=fusion, **{switch: True})
+    data = collected(lean)
     grads = []
-    for loss in (ppo, kept):
+    for loss in (lean, kept):
         torch.manual_seed(1)  # the same samples of the TanhNormal's entropy estimate
         out = loss(data.clone())
         sum(out[key] for key in LOSS_KEYS).backward()
         grads.append({name: p.grad for name, p in loss.named_parameters()})
-    for key in ("loss_manager_critic", "explained_variance_manager"):
-        assert key not in ppo(data.clone())
+    for key in (f"loss_{name}_critic", f"explained_variance_{name}"):
+        assert key not in lean(data.clone())
         assert key in kept(data.clone())
-    # PPO's value is the worker's: the fused explained variance is the worker's.
-    out = ppo(data.clone())
-    assert_close(out["explained_variance"], out["explained_variance_worker"])
-    manager = [name for name in grads[0] if "critic_network_params.module.1." in name]
-    assert manager and all(grads[0][name] is None for name in manager)
-    assert all(grads[1][name] is not None for name in manager)
-    for name, grad in grads[0].items():
-        if name not in manager:
-            assert_close(grad, grads[1][name], rtol=0, atol=1e-6, msg=name)
+    # The fused value is the remaining critic's: so is the explained variance.
+    out = lean(data.clone())
+    remaining = "manager" if name == "worker" else "worker"
+    assert_close(out["explained_variance"], out[f"explained_variance_{remaining}"])
+    left_out = [key for key in grads[0] if f"critic_network_params.module.{index}." in key]
+    assert left_out and all(grads[0][key] is None for key in left_out)
+    assert all(grads[1][key] is not None for key in left_out)
+    for key, grad in grads[0].items():
+        if key not in left_out:
+            assert_close(grad, grads[1][key], rtol=0, atol=1e-6, msg=key)
 
 
 def test_weighted_explained_variance_is_that_of_the_weighted_elements() -> None:
@@ -407,7 +420,7 @@ def test_policy_diagnostics_are_torchrls_where_every_experience_is_the_learners(
 
 
 @pytest.mark.parametrize("discrete", [None, 6])
-@pytest.mark.parametrize("fusion", ["local", "max", "mean"])
+@pytest.mark.parametrize("fusion", ["local", "manager", "max", "mean"])
 @pytest.mark.parametrize("max_importance_ratio", [None, 1.5])
 def test_terms_are_forwards_values_and_gradients(
     discrete: int | None, fusion: str, max_importance_ratio: float | None

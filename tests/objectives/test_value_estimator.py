@@ -106,10 +106,10 @@ def test_the_estimator_equals_the_functional_reference(
     # tensors; it is itself checked against the plain loop and closed forms.
     _, worker, manager = networks()
     data = make_batch(batch=(2, 3), steps=9, p_terminated=0.2, p_truncated=0.2, seed=4)
-    # manager_diagnostics: "local" writes V_m too, which the reference reads.
+    # The diagnostics: "local" writes V_m too, "manager" V_w, which the reference reads.
     estimator(
         worker, manager, fusion=fusion, weight=0.3, manager_interval=interval,
-        manager_diagnostics=True,
+        manager_diagnostics=True, worker_diagnostics=True,
     )(data)  # fmt: skip
     nxt = data["next"]
 
@@ -504,26 +504,44 @@ def test_shifted_estimate_evaluates_next_only_after_ends_and_at_the_last_step(
     assert counter.rows == worlds * steps + ends + worlds
 
 
+#: fusion -> the critic its V_hat does not read: (index in (worker, manager), the value
+#: it writes, its observation, the switch that runs it anyway).
+LEFT_OUT = {
+    "local": (1, "manager_value", "manager_observation", "manager_diagnostics"),
+    "manager": (0, "worker_value", "observation", "worker_diagnostics"),
+}
+
+
 @pytest.mark.parametrize("shifted", [False, True])
-def test_local_fusion_leaves_the_manager_out_unless_asked(
-    networks: Callable, shifted: bool
+@pytest.mark.parametrize("fusion", sorted(LEFT_OUT))
+def test_the_critic_a_fusion_ignores_is_left_out_unless_asked(
+    networks: Callable, fusion: str, shifted: bool
 ) -> None:
-    # PPO's V_hat is V_w: without manager_diagnostics the manager critic is not run and
-    # its value not written; the estimate is the same either way.
-    _, worker, manager = networks()
-    data = as_trajectories(make_batch(batch=(3,), steps=11, seed=6))
-    counter = RowCounter(manager.module)
-    counted = TensorDictModule(counter, in_keys=manager.in_keys, out_keys=manager.out_keys)
-    without, with_manager = data.clone(), data.clone()
-    ppo = estimator(worker, counted, fusion="local", shifted=shifted)
-    ppo(without)
-    assert counter.rows == 0
-    assert (GROUP, "manager_value") not in without.keys(include_nested=True)
-    assert (GROUP, "manager_value") not in ppo.out_keys
-    assert (GROUP, "manager_observation") not in ppo.in_keys
-    estimator(worker, counted, fusion="local", shifted=shifted, manager_diagnostics=True)(
-        with_manager
+    # PPO's V_hat is V_w, the centralised critic's V_m: without diagnostics the other
+    # critic is not run and its value not written; the estimate is the same either way.
+    index, value_key, observation_key, switch = LEFT_OUT[fusion]
+    _, *critics = networks()
+    counter = RowCounter(critics[index].module)
+    critics[index] = TensorDictModule(
+        counter, in_keys=critics[index].in_keys, out_keys=critics[index].out_keys
     )
+    data = as_trajectories(make_batch(batch=(3,), steps=11, seed=6))
+    without, with_both = data.clone(), data.clone()
+    lean = estimator(*critics, fusion=fusion, shifted=shifted)
+    lean(without)
+    assert counter.rows == 0
+    assert (GROUP, value_key) not in without.keys(include_nested=True)
+    assert (GROUP, value_key) not in lean.out_keys
+    assert (GROUP, observation_key) not in lean.in_keys
+    estimator(*critics, fusion=fusion, shifted=shifted, **{switch: True})(with_both)
     assert counter.rows > 0
     for key in ("advantage", "value_target", "state_value", "manager_selected"):
-        assert_close(without[GROUP, key], with_manager[GROUP, key], rtol=0, atol=0)
+        assert_close(without[GROUP, key], with_both[GROUP, key], rtol=0, atol=0)
+
+
+def test_manager_fusion_runs_the_worker_between_consultations(networks: Callable) -> None:
+    # With manager_interval > 1, V_hat = V_w where the manager is not consulted.
+    _, worker, manager = networks()
+    fused = estimator(worker, manager, fusion="manager", manager_interval=2).fused_value()
+    assert fused.runs_worker
+    assert (GROUP, "worker_value") in fused.out_keys
