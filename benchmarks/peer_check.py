@@ -174,6 +174,7 @@ def command(job: Job, directory: Path | None = None) -> list[str]:
         f"algo.max_steps={job.frames}",
         "threads=1",
         f"logger.summary_freq={FRAMES_PER_UPDATE}",
+        f"checkpoint_freq={5 * FRAMES_PER_UPDATE}",  # a killed run loses at most 5 updates
         "logger.backends=[csv]",
         "logger.progress=false",
         "resume=auto",

@@ -14,9 +14,9 @@ The same studies also run as Hydra multiruns (``python -m rlhc.run -m study=<nam
 ``--summaries-only`` then writes their summaries.
 
 ``--hours H`` starts a run only if it is expected to finish within ``H`` hours of the
-command's start: its study's measured wall time per frame (of its game, for a study
-without complete runs) times the frames it has left by its summary (all of them for a
-run without one). A machine that is taken away at a
+command's start: its study's measured wall time per frame (of its game, or of its task on
+another library's env, for a study without complete runs) times the frames it has left by
+its summary (all of them for a run without one). A machine that is taken away at a
 known time (a session, a cluster allocation) then ends with every run it started
 complete, none half-trained. A run without any measured rate is not started under
 ``--hours``.
@@ -78,7 +78,7 @@ def command(run: PlannedRun) -> list[str]:
 
 def expected_seconds(runs: Sequence[PlannedRun]) -> dict[PlannedRun, float | None]:
     """Per run: its study's measured seconds per frame times the frames it has left
-    (``None``: no complete run of its game to measure a rate from)."""
+    (``None``: no complete run of its game or task to measure a rate from)."""
     known = studies()
     found = discover(known)
     trained = {(r.study, r.config, r.seed): r.frames or 0 for r in found}
@@ -109,7 +109,7 @@ class Deadline:
         left = self.seconds - (time.monotonic() - self.start)
         needs = self.expected.get(run)
         if needs is None:
-            return "no measured rate of its game to estimate its time from"
+            return "no measured rate of its game or task to estimate its time from"
         if needs > left:
             return (f"needs ~{needs / 60:.0f} min at its study's measured rate, "
                     f"{max(left, 0) / 60:.0f} min left of --hours")  # fmt: skip

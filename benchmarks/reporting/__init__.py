@@ -10,6 +10,7 @@ trains the plan; this package holds what they share and what the report does.
 | :mod:`~benchmarks.reporting.study` | groups, compared pairs (RLHC, twin, PPO), play metrics, smoothing and windows |
 | :mod:`~benchmarks.reporting.runs` | run directories, their summaries and configs |
 | :mod:`~benchmarks.reporting.statistics` | smoothed finals, thresholds, steps to reach them, Welch's test |
+| :mod:`~benchmarks.reporting.generic` | a study on another library's env: its task, its returns-only section |
 | :mod:`~benchmarks.reporting.tournament` | a study's round robin: entrants, the stored series, playing them |
 | :mod:`~benchmarks.reporting.ratings` | Bradley-Terry ratings, team-set scores with seed spread, seed pairs |
 | :mod:`~benchmarks.reporting.standings` | the matches' section: ratings, scores against built-in teams, head-to-head |

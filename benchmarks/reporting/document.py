@@ -10,7 +10,6 @@ missing ones into that file first). The document is a sequence of named blocks
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import time
 from collections.abc import Mapping, Sequence
@@ -23,7 +22,15 @@ from .efficiency import efficiency_section
 from .environment import machine, versions
 from .figures import draw_study_curves
 from .formatting import fmt_interval, fmt_reach, positive_interval, share_interval, table
-from .markdown import drift_lines, finals_section, runs_section, settings_section
+from .generic import returns_note, speed_table, task_lines
+from .markdown import (
+    drift_lines,
+    finals_section,
+    game_note,
+    runs_section,
+    settings_section,
+    speed_cells,
+)
 from .plan import Study, studies
 from .runs import StudyRun, complete_runs, discover, study_rate
 from .standings import play, study_matches
@@ -33,9 +40,8 @@ from .statistics import (
     smoothed_final,
     steps_to_reach,
     threshold,
-    window_points,
 )
-from .study import PLAY_METRIC, SMOOTHING, THRESHOLD_FRACTION, lenders, table_configs
+from .study import PLAY_METRIC, THRESHOLD_FRACTION, lenders, table_configs
 
 #: The hand-written block, kept from the previous document.
 INTERPRETATION = "interpretation"
@@ -67,8 +73,10 @@ def build_report(
     # and the runs of the studies whose configs a reported study borrows
     lent = {name: s for name, s in studies().items() if name in lenders(plan) - set(plan)}
     known = [*runs, *discover(lent)]
+    # only a game has a scripted team and rules of play: the other envs play no matches
+    games = [study for study in plan.values() if study.task is None]
     if args.matches > 0:
-        for study in plan.values():
+        for study in games:
             play(study, known, args.matches, args.match_seed)
     planned = sum(study.planned for study in plan.values())
     done = sum(r.complete for r in runs)
@@ -96,7 +104,7 @@ def build_report(
         "team and the random team, kept in the study's `round_robin.json`.",
         "",
     ]
-    for study in plan.values():
+    for study in games:
         section, match_verdicts = study_matches(study, known)
         match_lines += [*section, ""]
         verdicts += match_verdicts
@@ -108,9 +116,13 @@ def build_report(
         "Generated from the numbers above (alpha = 0.05; intervals 95%):",
         "",
     ]
-    if done < planned:
+    # A study without a complete run makes no statement: the others' rest on their own runs.
+    stated = {r.study for r in runs if r.complete}
+    stated_planned = sum(study.planned for name, study in plan.items() if name in stated)
+    if done < stated_planned:
         claims += [
-            f"These statements rest on {done} of {planned} planned runs; they are provisional.",
+            f"These statements rest on {done} of their studies' {stated_planned} planned "
+            "runs; they are provisional.",
             "",
         ]
     interpretation = kept.get(INTERPRETATION)
@@ -179,17 +191,22 @@ def plan_section(plan: Mapping[str, Study], runs: Sequence[StudyRun]) -> list[st
     """The plan with its compute: core-hours per study from measured training rates."""
     rows = []
     totals = [0.0, 0.0]
+    unmeasured = []
     for study in plan.values():
         mine = [r for r in runs if r.study == study.name]
         done = sum(r.complete for r in mine)
         rate = study_rate(plan, study, runs)
-        per_run = rate * study.max_steps / 3600 if rate is not None else math.nan
         remaining = sum(
             max(study.max_steps - (r.frames or 0), 0) for r in mine if not r.complete
         ) + study.max_steps * (study.planned - len(mine))
-        left = rate * remaining / 3600 if rate is not None else math.nan
-        totals[0] += per_run * study.planned
-        totals[1] += left
+        if rate is None:
+            unmeasured.append(f"`{study.name}`")
+            hours = ["—", "—", "—"]
+        else:
+            per_run, left = rate * study.max_steps / 3600, rate * remaining / 3600
+            totals[0] += per_run * study.planned
+            totals[1] += left
+            hours = [f"{per_run:.2f}", f"{per_run * study.planned:.1f}", f"{left:.1f}"]
         rows.append(
             [
                 f"`{study.name}`",
@@ -198,9 +215,7 @@ def plan_section(plan: Mapping[str, Study], runs: Sequence[StudyRun]) -> list[st
                 str(len(study.seeds)),
                 f"{study.max_steps:,}",
                 f"{done} of {study.planned}",
-                f"{per_run:.2f}",
-                f"{per_run * study.planned:.1f}",
-                f"{left:.1f}",
+                *hours,
             ]
         )
     header = [
@@ -226,7 +241,13 @@ def plan_section(plan: Mapping[str, Study], runs: Sequence[StudyRun]) -> list[st
         *table(header, rows),
         "",
         f"In all: {totals[0]:.1f} core-hours planned, {totals[1]:.1f} left "
-        f"({totals[1] / 2:.1f} h of this 2-core machine).",
+        f"({totals[1] / 2:.1f} h of this 2-core machine)."
+        + (
+            f" Not counted, without a measured rate (no complete run of their game or task "
+            f"yet): {', '.join(unmeasured)}."
+            if unmeasured
+            else ""
+        ),
     ]
 
 
@@ -252,38 +273,38 @@ def environment() -> list[str]:
 def study_section(
     study: Study, runs: Sequence[StudyRun], args: argparse.Namespace
 ) -> tuple[list[str], list[str]]:
-    """A study's heading, figure, finals, tests and training speed; also its verdicts."""
+    """A study's heading, figure, finals, tests and training speed; also its verdicts.
+
+    A game's section adds its play metric and sample efficiency; another library's env
+    says what it trains on, and compares each group's return alone.
+    """
     members = [r for r in runs if r.complete and r.name in table_configs(study)]
     lines = [f"## Study `{study.name}` ({study.env})", "", study.title, ""]
+    if study.task is not None:
+        lines += [*task_lines(study), ""]
     if not any(r.study == study.name for r in members):
-        return [*lines, "No complete run yet."], []
+        return [*lines, f"No complete run yet: `{study.command}` trains it (resumable)."], []
     image = args.images.resolve() / f"results_{study.name}.png"
     if args.figures:
         draw_study_curves(study.env, members, image)
     link = os.path.relpath(image, args.out.resolve().parent)
     section, comparisons = finals_section(study, runs, args.threshold_fraction)
-    efficiency, efficiency_verdicts = efficiency_section(study, runs)
-    lines += [
-        f"![{study.name} curves]({link})",
-        "",
-        f"The paper's four metrics and {PLAY_METRIC[study.env].title}, mean over complete "
-        f"seeds with a 95% t band, EMA {SMOOTHING} smoothing. Finals: per run, the mean of "
-        "the last 10% (by steps) of the smoothed curve; tables give the mean over seeds "
-        "with its 95% t interval (clipped at 0 for what cannot be negative: steps, "
-        "lengths, hits, goals, speeds; to [0, 1] for shares). Steps to threshold: mean "
-        "[95% t] of the seeds that reached it. Here the final window holds "
-        f"{window_points(members)} logged points "
-        "per run. In self-play both teams are the same policy, so a group's cumulative "
-        "reward says how the game's reward splits between roles and sides, not how well the "
-        "team plays; the matches below measure that.",
-        "",
-        *section,
-        "",
-        *play_and_speed(study, runs, args.threshold_fraction),
-        "",
-        *efficiency,
-    ]
-    verdicts = [c.verdict() for c in comparisons if c.testable] + efficiency_verdicts
+    lines += [f"![{study.name} curves]({link})", ""]
+    if study.task is not None:
+        lines += [returns_note(members), "", *section, "", *speed_table(study, runs)]
+        more: list[str] = []
+    else:
+        efficiency, more = efficiency_section(study, runs)
+        lines += [
+            game_note(study, members),
+            "",
+            *section,
+            "",
+            *play_and_speed(study, runs, args.threshold_fraction),
+            "",
+            *efficiency,
+        ]
+    verdicts = [c.verdict() for c in comparisons if c.testable] + more
     waiting = sorted({f"`{c.rlhc}` vs `{c.ppo}`" for c in comparisons if not c.testable})
     if waiting:
         verdicts.append(
@@ -325,19 +346,12 @@ def play_and_speed(study: Study, runs: Sequence[StudyRun], fraction: float) -> l
             steps_to_reach(*smoothed(r.curves(), column), level) if level is not None else None
             for r in members
         ]
-        speeds = [r.frames / r.wall_time for r in members if r.frames and r.wall_time > 0]
-        env_rates = [
-            float(np.nanmean(r.curves().columns["env_steps_per_s"]))
-            for r in members
-            if "env_steps_per_s" in r.curves().columns
-        ]
         rows.append(
             [
                 f"`{name}`",
                 fmt_interval(final_interval([v for v in finals[name] if v is not None]), 3),
                 fmt_reach(reach) if level is not None else "—",
-                fmt_interval(positive_interval(speeds), 0, fixed=True),
-                fmt_interval(positive_interval(env_rates), 0, fixed=True),
+                *speed_cells(members),
             ]
         )
     where = (

@@ -1,7 +1,7 @@
 """The report's figures: drawing only; the runs they show are read by the caller.
 
 ``RESULTS.md``'s curves per study are :func:`rlhc.analysis.drawing.plot_groups`'s (the paper's
-four metrics plus whether the teams play).
+four metrics plus, in a game, whether the teams play).
 """
 
 from __future__ import annotations
@@ -21,17 +21,21 @@ def draw_study_curves(env: str, members: Sequence[StudyRun], out: Path) -> Path:
     """A study's curves, one line per configuration (mean over seeds, 95% t band).
 
     Args:
-        env: the game (adds its play metric: hits per point, goal rate).
+        env: the game (adds its play metric: hits per point, goal rate) or another
+            library's env (the paper's metrics alone).
         members: the complete runs to draw, each labelled ``study/config``.
         out: the PNG to write.
 
     Returns:
         ``out``.
     """
-    play = PLAY_METRIC[env]
-    leaf = play.column.rpartition("/")[2]
-    metrics = {**PAPER_METRICS, leaf: play.title}
-    bounds = {"episode_length": (0.0, math.inf), leaf: play.bounds}
+    metrics = dict(PAPER_METRICS)
+    bounds = {"episode_length": (0.0, math.inf)}
+    play = PLAY_METRIC.get(env)
+    if play is not None:
+        leaf = play.column.rpartition("/")[2]
+        metrics[leaf] = play.title
+        bounds[leaf] = play.bounds
     groups: dict[str, list[Run]] = {}
     for run in members:
         groups.setdefault(run.name, []).append(run.curves())

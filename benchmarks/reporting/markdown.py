@@ -15,10 +15,10 @@ import numpy as np
 from rlhc.evaluation.stats import t_interval
 
 from .formatting import fmt, fmt_interval, fmt_reach, positive_interval, table
-from .plan import Study
+from .plan import TASK_KEYS, Study
 from .runs import StudyRun, complete_runs, config_drift
-from .statistics import Comparison, config_finals, fill_reach, finite
-from .study import GROUPS, SMOOTHING, comparisons_of, table_configs
+from .statistics import Comparison, config_finals, fill_reach, finite, window_points
+from .study import PLAY_METRIC, SMOOTHING, comparisons_of, groups_of, table_configs
 
 #: Table 3 of the paper: recorded config key -> its row label.
 SETTINGS = (
@@ -95,13 +95,20 @@ def runs_section(runs: Sequence[StudyRun], plan: Mapping[str, Study]) -> list[st
     ]
 
 
+def environment_of(config: dict[str, Any]) -> str:
+    """A recorded config's game, or another library's env with its task (whose settings
+    differ from task to task): ``tennis``, ``vmas navigation``."""
+    tasks = [config[f"env.{key}"] for key in TASK_KEYS.values() if f"env.{key}" in config]
+    return " ".join([str(config.get("env.name")), *map(str, tasks)])
+
+
 def settings_section(runs: Sequence[StudyRun]) -> list[str]:
-    """Table 3 values as the complete runs' configs recorded them, per game."""
+    """Table 3 values as the complete runs' configs recorded them, per game (or task)."""
     by_env: dict[str, dict[str, Any]] = {}
     for run in runs:
         if run.complete:
             config = run.curves().config
-            by_env.setdefault(str(config.get("env.name")), config)
+            by_env.setdefault(environment_of(config), config)
     if not by_env:
         return ["No complete run yet."]
     games = sorted(by_env)
@@ -133,13 +140,42 @@ def drift_lines(runs: Sequence[StudyRun]) -> list[str]:
     ]
 
 
+def finals_note(nonnegative: str) -> str:
+    """How a study's tables compute finals, intervals and steps to threshold.
+
+    Args:
+        nonnegative: what its tables show that cannot be negative (intervals clipped at 0).
+    """
+    return (
+        "Finals: per run, the mean of the last 10% (by steps) of the smoothed curve; tables "
+        "give the mean over seeds with its 95% t interval (clipped at 0 for what cannot be "
+        f"negative: {nonnegative}; to [0, 1] for shares). Steps to threshold: mean [95% t] "
+        "of the seeds that reached it."
+    )
+
+
+def speed_cells(members: Sequence[StudyRun]) -> list[str]:
+    """A configuration's training speed over its complete runs, mean [95% t]: frames per
+    second of training wall time, and env steps per second of collection alone."""
+    speeds = [r.frames / r.wall_time for r in members if r.frames and r.wall_time > 0]
+    env_rates = [
+        float(np.nanmean(r.curves().columns["env_steps_per_s"]))
+        for r in members
+        if "env_steps_per_s" in r.curves().columns
+    ]
+    return [
+        fmt_interval(positive_interval(speeds), 0, fixed=True),
+        fmt_interval(positive_interval(env_rates), 0, fixed=True),
+    ]
+
+
 def finals_section(
     study: Study, runs: Sequence[StudyRun], fraction: float
 ) -> tuple[list[str], list[Comparison]]:
     """Per group: the finals table with steps to threshold; Welch's tests."""
     lines: list[str] = []
     comparisons: list[Comparison] = []
-    for group in GROUPS[study.env]:
+    for group in groups_of(study, runs):
         tables = [
             config_finals(name, complete_runs(runs, name), group) for name in table_configs(study)
         ]
@@ -202,3 +238,16 @@ def finals_section(
         *table(["first vs second", "group", "seeds", "mean difference", "t", "p"], rows),
     ]
     return lines, comparisons
+
+
+def game_note(study: Study, members: Sequence[StudyRun]) -> str:
+    """What a game's figure and tables show, and why its returns do not say who plays."""
+    return (
+        f"The paper's four metrics and {PLAY_METRIC[study.env].title}, mean over complete "
+        f"seeds with a 95% t band, EMA {SMOOTHING} smoothing. "
+        + finals_note("steps, lengths, hits, goals, speeds")
+        + f" Here the final window holds {window_points(members)} logged points per run. In "
+        "self-play both teams are the same policy, so a group's cumulative reward says how "
+        "the game's reward splits between roles and sides, not how well the team plays; the "
+        "matches below measure that."
+    )

@@ -1,11 +1,12 @@
 """The reproduction's plan, read from the study configs ``conf/study/<name>.yaml``.
 
-A study config is the single description of a study: the game and its overrides, the
-critics compared and the seeds (``hydra.sweeper.params``), where its runs live
-(``hydra.sweep.dir``), and, through Hydra's composition, the budget. The same file runs
-the study as one Hydra multirun (``python -m rlhc.run -m study=<name>``);
-``python -m benchmarks.reproduce`` trains its :func:`plan` one process per run, and
-``python -m benchmarks.report`` compares what was trained with it.
+A study config is the single description of a study: the game (or another library's env
+and its task, :class:`Task`) and its overrides, the critics compared and the seeds
+(``hydra.sweeper.params``), where its runs live (``hydra.sweep.dir``), and, through
+Hydra's composition, the budget. The same file runs the study as one Hydra multirun
+(``python -m rlhc.run -m study=<name>``); ``python -m benchmarks.reproduce`` trains its
+:func:`plan` one process per run, and ``python -m benchmarks.report`` compares what was
+trained with it.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import DictConfig, ListConfig, OmegaConf
@@ -22,6 +24,25 @@ ROOT = Path(__file__).resolve().parents[2]
 STUDY_DIR = ROOT / "conf" / "study"
 #: The swept keys of a study config: one configuration per critic, one run per seed.
 CONFIG_KEY, SEED_KEY = "critic", "seed"
+#: ``env=<source>`` of another library (:data:`rlhc.envs.SOURCES`) -> the env key naming its task.
+TASK_KEYS = {"vmas": "scenario", "pettingzoo": "factory"}
+
+
+@dataclass(frozen=True)
+class Task:
+    """What a study on another library's env trains on (a game needs none: its name says it).
+
+    Attributes:
+        key: the env key that names it (:data:`TASK_KEYS`: ``scenario``, ``factory``).
+        name: its value: a VMAS scenario, or a PettingZoo ``<module>:<callable>``.
+        kwargs: its options (``env.kwargs``), in the config's order.
+        max_cycles: decisions per episode (``env.max_cycles``; ``None``: the env's own).
+    """
+
+    key: str
+    name: str
+    kwargs: tuple[tuple[str, Any], ...] = ()
+    max_cycles: int | None = None
 
 
 @dataclass(frozen=True)
@@ -70,6 +91,8 @@ class Study:
         seeds: the seeds per configuration.
         max_steps: frames per run (composed: Table 3's budget unless the study sets one).
         root: where its runs live (``hydra.sweep.dir``), absolute.
+        task: on another library's env, what it trains on; ``None``: a game, whose
+            scripted team and play metric the report uses.
     """
 
     name: str
@@ -79,6 +102,12 @@ class Study:
     seeds: tuple[int, ...]
     max_steps: int
     root: Path
+    task: Task | None = None
+
+    @property
+    def environment(self) -> tuple[str, Task | None]:
+        """The env with its task: studies with equal environments share a training rate."""
+        return (self.env, self.task)
 
     @property
     def planned(self) -> int:
@@ -130,8 +159,25 @@ def composed(name: str) -> DictConfig:
         return compose(config_name="train", overrides=[f"study={name}"])
 
 
+def read_task(env: DictConfig) -> Task | None:
+    """The task of a composed ``env`` config of another library's env (``None``: a game).
+
+    Raises:
+        ValueError: its ``env.kwargs`` is not a mapping.
+    """
+    key = TASK_KEYS.get(str(env.name))
+    if key is None:
+        return None
+    kwargs = OmegaConf.to_container(env.kwargs) if env.kwargs else {}
+    if not isinstance(kwargs, dict):
+        raise ValueError(f"env.kwargs must be a mapping, got {kwargs!r}")
+    max_cycles = None if env.max_cycles is None else int(env.max_cycles)
+    options = tuple((str(name), value) for name, value in kwargs.items())
+    return Task(key, str(env[key]), options, max_cycles)
+
+
 def read_study(path: Path) -> Study:
-    """The study a ``conf/study`` file describes (composed once for game and budget).
+    """The study a ``conf/study`` file describes (composed once for env, task and budget).
 
     Raises:
         ValueError: it sweeps no critics or seeds, or has no ``hydra.sweep.dir``.
@@ -156,10 +202,12 @@ def read_study(path: Path) -> Study:
         seeds=tuple(int(seed) for seed in swept(raw, SEED_KEY, path)),
         max_steps=int(config.algo.max_steps),
         root=(ROOT / str(root)).resolve(),
+        task=read_task(config.env),
     )
 
 
-#: The order of the report: the paper's studies, then those beyond it.
+#: The order of the report: the paper's studies, those beyond it, then other libraries'
+#: envs (the peer check's tasks, in its order).
 ORDER = (
     "tennis_paper",
     "tennis_extended",
@@ -167,6 +215,10 @@ ORDER = (
     "tennis_extensions",
     "soccer_best",
     "tennis_best",
+    "vmas_navigation",
+    "vmas_balance",
+    "pettingzoo_simple_spread",
+    "pettingzoo_simple_tag",
 )
 
 

@@ -141,11 +141,13 @@ def seconds_per_frame(runs: Sequence[StudyRun]) -> float | None:
 
 
 def study_rate(plan: Mapping[str, Study], study: Study, runs: Sequence[StudyRun]) -> float | None:
-    """Seconds per frame of ``study``'s complete runs, else of its game's in ``plan``
-    (``None``: no complete run of the game)."""
+    """Seconds per frame of ``study``'s complete runs, else of its game's in ``plan`` (on
+    another library's env, of the same task's: another scenario runs at another rate;
+    ``None``: no complete run of the game or task)."""
     rate = seconds_per_frame([r for r in runs if r.study == study.name])
     if rate is None:
-        rate = seconds_per_frame([r for r in runs if plan[r.study].env == study.env])
+        same = [r for r in runs if plan[r.study].environment == study.environment]
+        rate = seconds_per_frame(same)
     return rate
 
 

@@ -8,11 +8,12 @@ the report needs.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from itertools import combinations
 from typing import NamedTuple
 
 from .plan import Study
+from .runs import StudyRun
 
 SMOOTHING = 0.8  # TensorBoard's EMA weight, as ``python -m rlhc.plot``
 FINAL_FRACTION = 0.1  # the last 10% of each curve, by steps
@@ -48,6 +49,18 @@ CRITICS = ("hierarchical", "twin", "ppo")
 #: Studies whose tables also hold configs of another study (``study/config``): the
 #: extensions are compared with the paper's tennis critics.
 BORROWED = {"tennis_extensions": ("tennis_paper/hierarchical", "tennis_paper/ppo")}
+
+
+def groups_of(study: Study, runs: Sequence[StudyRun]) -> tuple[str, ...]:
+    """The groups of a study's group metrics: a game's (:data:`GROUPS`); on another
+    library's env, whose groups depend on its task, those whose return its complete runs
+    logged (``<group>/cumulative_reward``), by name.
+    """
+    if study.task is None:
+        return GROUPS[study.env]
+    logged = {c for r in runs if r.study == study.name and r.complete for c in r.curves().columns}
+    suffix = "/cumulative_reward"
+    return tuple(sorted(c.removesuffix(suffix) for c in logged if c.endswith(suffix)))
 
 
 def lenders(names: Iterable[str]) -> set[str]:

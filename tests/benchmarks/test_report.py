@@ -127,7 +127,8 @@ def test_plan_reads_the_study_configs_and_is_seed_major() -> None:
     known = studies()
     assert list(known) == [
         "tennis_paper", "tennis_extended", "soccer_paper", "tennis_extensions", "soccer_best",
-        "tennis_best",
+        "tennis_best", "vmas_navigation", "vmas_balance", "pettingzoo_simple_spread",
+        "pettingzoo_simple_tag",
     ]  # fmt: skip
     assert known["soccer_paper"].configs == ("ppo", "hierarchical", "twin")
     assert (known["soccer_paper"].env, known["soccer_paper"].max_steps) == ("soccer", 500_000)
@@ -149,7 +150,7 @@ def test_plan_reads_the_study_configs_and_is_seed_major() -> None:
     ]
     assert runs[0].overrides == ("study=tennis_extensions", "critic=manager", "seed=0")
     assert runs[0].run_dir == known["tennis_extensions"].root / "manager" / "seed_0"
-    assert len(plan(list(known))) == sum(s.planned for s in known.values()) == 79
+    assert len(plan(list(known))) == sum(s.planned for s in known.values()) == 139
     assert known["tennis_extensions"].seeds == (0, 1, 2)  # the compute plan's 3 seeds
     with pytest.raises(KeyError, match="unknown studies"):
         plan(["nonesuch"])

@@ -21,6 +21,7 @@ from configs import CONF, load, options
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
+from benchmarks import peer_check
 from rlhc.cli.cleanup import remove_if_unused, remove_unused_sweep
 from rlhc.cli.hydra_hooks import run_directory
 from rlhc.storage.checkpoint import load_checkpoint
@@ -34,6 +35,13 @@ STUDIES = {
     "soccer_best": ("soccer", None, ["ppo", "hierarchical", "twin"], "mixed", 0.1, 1_000_000, "soccer/best"),
     "tennis_best": ("tennis", False, ["ppo", "hierarchical", "twin"], "mixed", 0.0, 5_000_000, "tennis/best"),
 }  # fmt: skip
+#: Studies on other libraries' envs: the peer check's task (benchmarks/peer_check.py), budget.
+GENERIC = {
+    "vmas_navigation": ("vmas/navigation", 300_000),
+    "vmas_balance": ("vmas/balance", 150_000),
+    "pettingzoo_simple_spread": ("pettingzoo/simple_spread", 150_000),
+    "pettingzoo_simple_tag": ("pettingzoo/simple_tag", 150_000),
+}
 #: League shares of a study that are not its league option's own.
 SHARES = {"tennis_best": {"self_play": 0.3, "snapshot": 0.2, "scripted": 0.5, "random": 0.0}}
 #: Seeds per configuration where a study has fewer than 5 (the compute plan).
@@ -62,7 +70,7 @@ def sweep_settings(study: str) -> dict[str, object]:
 
 # --- what a study composes -----------------------------------------------------------
 def test_every_study_is_described() -> None:
-    assert sorted(STUDIES) == options("study")
+    assert sorted([*STUDIES, *GENERIC]) == options("study")
 
 
 @pytest.mark.parametrize("study", sorted(STUDIES))
@@ -104,6 +112,33 @@ def test_a_study_trains_its_preset(study: str) -> None:
         assert getattr(run, section) == getattr(preset, section), section
     for key in ("checkpoint_freq", "play_freq", "eval_freq", "eval_matches"):
         assert getattr(run, key) == getattr(preset, key), key
+
+
+@pytest.mark.parametrize("study", sorted(GENERIC))
+def test_a_generic_study_trains_what_the_peer_check_trains(study: str) -> None:
+    task, budget = GENERIC[study]
+    cfg = load(f"study={study}")
+    assert (cfg.algo.max_steps, cfg.resume, cfg.logger.backends) == (budget, "auto", ["csv"])
+    assert sweep_settings(study) == {
+        "run": {"dir": "${hydra.sweep.dir}/${hydra.sweep.subdir}"},
+        "sweep": {
+            "dir": f"benchmarks/results/learning/{task.replace('/', '_')}",
+            "subdir": "${hydra:runtime.choices.critic}/seed_${seed}",
+        },
+        "params": {"critic": "ppo,hierarchical,twin", "seed": "range(5)"},
+    }
+    # The peer check's run of the task at the study's budget is the study's run.
+    if not (peer_check.PEER_VENV / "bin" / "python").exists():
+        pytest.skip("the peer check reads BenchMARL's task options from .venv-peer")
+    job = peer_check.Job(task, "ippo", "rlhc", seed=3, frames=budget)
+    words = peer_check.command(job)
+    assert words[1:3] == ["-m", "rlhc.run"]
+    # the study sweeps the critic and names the run directory
+    leave_out = {*peer_check.ALGORITHMS["ippo"], f"hydra.run.dir={job.directory}"}
+    overrides = [word for word in words[3:] if word not in leave_out]
+    assert load(f"study={study}", "critic=hierarchical", "seed=3") == load(
+        *overrides, "critic=hierarchical"
+    )
 
 
 def test_hierarchical_k5_consults_the_manager_every_5_decisions() -> None:

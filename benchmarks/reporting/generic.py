@@ -1,0 +1,69 @@
+"""A study on another library's env (VMAS, PettingZoo): what it trains on, its section's text.
+
+Such an env has no scripted team and no rules of play, so a configuration is compared by
+each group's return alone: the finals and Welch's tests of :mod:`reporting.markdown`, as
+in a game, on ``<group>/cumulative_reward`` (its groups are those the runs logged,
+:func:`reporting.study.groups_of`). Its section has no play metric, it plays no round
+robin, and it is left out of the aggregates over games (:mod:`reporting.aggregates`),
+whose score is a match score.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+
+from .formatting import table
+from .markdown import finals_note, speed_cells
+from .plan import Study
+from .runs import StudyRun, complete_runs
+from .statistics import window_points
+from .study import SMOOTHING, table_configs
+
+
+def task_lines(study: Study) -> list[str]:
+    """The env, task and options the study trains on, its frames, and why it has no matches.
+
+    Raises:
+        ValueError: ``study`` is a game's (it has no task).
+    """
+    task = study.task
+    if task is None:
+        raise ValueError(f"{study.name} trains on a game, not on another library's env")
+    kwargs = ", ".join(f"{key}: {json.dumps(value)}" for key, value in task.kwargs)
+    cycles = "" if task.max_cycles is None else f" `env.max_cycles={task.max_cycles}`"
+    return [
+        f"Environment: `env={study.env}` `env.{task.key}={task.name}` "
+        f"`env.kwargs={{{kwargs}}}`{cycles}; {study.max_steps:,} frames per run.",
+        "",
+        "The env has no scripted team: no play metric and no matches, and the study is left "
+        "out of the aggregates over games.",
+    ]
+
+
+def returns_note(members: Sequence[StudyRun]) -> str:
+    """What the study's figure and tables show: the groups' returns, and how finals are made."""
+    return (
+        f"The paper's four metrics, mean over complete seeds with a 95% t band, EMA "
+        f"{SMOOTHING} smoothing; a group's cumulative reward is an episode's return averaged "
+        "over the group's agents and over the episodes that ended since the previous row, "
+        "the number the critics are compared by. "
+        + finals_note("steps, lengths, speeds")
+        + f" Here the final window holds {window_points(members)} logged points per run."
+    )
+
+
+def speed_table(study: Study, runs: Sequence[StudyRun]) -> list[str]:
+    """Training speed per configuration, mean over seeds [95% t]."""
+    rows = [
+        [f"`{name}`", *speed_cells(members)]
+        for name in table_configs(study)
+        if (members := complete_runs(runs, name))
+    ]
+    return [
+        "Training speed: frames per second of training wall time (collection + updates) and "
+        "env steps per second of collection alone (one env step = one frame = one decision "
+        "of one world, all its agents). Mean over seeds [95% t]:",
+        "",
+        *table(["config", "frames/s (training)", "env steps/s (collection)"], rows),
+    ]
