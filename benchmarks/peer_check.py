@@ -10,12 +10,15 @@ this package is ``python -m rlhc.run`` with the preset of ``conf/recipe/<source>
 (BenchMARL's on-policy experiment in this package's units), BenchMARL's task options read
 from its task yaml, its 10 worlds per update, and
 
-=========  =========================================  =====================
-algorithm  this package                               BenchMARL
-=========  =========================================  =====================
-``ippo``   ``critic=ppo`` (each agent's own obs)       ``IppoConfig``
-``mappo``  ``critic=manager env.manager_view=team``    ``MappoConfig``
-=========  =========================================  =====================
+=========  ==========================================  =====================
+algorithm  this package                                BenchMARL
+=========  ==========================================  =====================
+``ippo``   ``critic=ppo`` (each agent's own obs)        ``IppoConfig``
+``mappo``  ``critic=manager env.manager_view=world``    ``MappoConfig``
+=========  ==========================================  =====================
+
+(``world``: one critic value per world from the group's observations in index order,
+the input and output of BenchMARL's centralised critic with shared parameters.)
 
 Both log, per update, each group's mean return over the episodes that ended in it. A
 run's score is the mean of its last five updates (30,000 frames); ``report`` compares, per
@@ -70,7 +73,7 @@ LAST_UPDATES = 5
 IMPLEMENTATIONS = ("rlhc", "benchmarl")
 ALGORITHMS = {
     "ippo": ["critic=ppo"],
-    "mappo": ["critic=manager", "env.manager_view=team"],
+    "mappo": ["critic=manager", "env.manager_view=world"],
 }
 TASKS = ("vmas/navigation", "vmas/balance", "pettingzoo/simple_spread", "pettingzoo/simple_tag")
 #: Student's t, two-sided 95 %, by degrees of freedom.

@@ -14,6 +14,7 @@ from rlhc.building.normalisation import SafeVecNorm
 from rlhc.building.shaping import PotentialShaping, game_potential
 from rlhc.config.train_schema import TrainConfig
 from rlhc.envs import SOURCES, make_env, make_game
+from rlhc.envs.generic import SHARED_VIEWS
 from rlhc.envs.keys import EPISODE_REWARD, MANAGER_OBSERVATION, OBSERVATION, REWARD
 from rlhc.errors import ConfigError
 from rlhc.modules import (
@@ -244,6 +245,8 @@ def make_agents(
     and standardisation.
     """
     net = network_config(cfg)
+    # A view of the whole world, the same for every agent: the manager critic runs once.
+    shared_view = getattr(cfg.env, "manager_view", None) in SHARED_VIEWS
     actors: dict[str, torch.nn.Module] = {}
     losses: dict[str, HierarchicalPPOLoss] = {}
     for group in group_names(env):
@@ -252,7 +255,7 @@ def make_agents(
         actor = make_actor(env, group, net).to(cfg.device)
         worker_critic = make_worker_critic(env, group, net).to(cfg.device)
         manager_critic = make_manager_critic(
-            env, group, net, manager_view=cfg.critic.manager_view
+            env, group, net, manager_view=cfg.critic.manager_view, shared_view=shared_view
         ).to(cfg.device)
         actors[group] = actor
         losses[group] = make_ppo_loss(

@@ -92,11 +92,21 @@ def network_flops(cfg: TrainConfig, env: EnvBase | None = None) -> dict[str, Gro
             networks["worker_critic"] = estimator.worker_value_network
         if estimator.runs_manager:
             networks["manager_critic"] = estimator.manager_value_network
-        counts = {name: FLOP_PER_MAC * agents * linear_macs(net) for name, net in networks.items()}
+        counts = {
+            # a critic on a view shared by the agents runs once per world
+            name: FLOP_PER_MAC * (1 if _shared(net) else agents) * linear_macs(net)
+            for name, net in networks.items()
+        }
         flops[group] = GroupFlops(
             agents=agents, **{"worker_critic": 0, "manager_critic": 0} | counts
         )
     return flops
+
+
+def _shared(network: nn.Module) -> bool:
+    """Whether ``network`` runs once per world (a :class:`~rlhc.modules.mlp.GroupMLP`
+    on an input shared by the agents)."""
+    return any(getattr(module, "shared_input", False) for module in network.modules())
 
 
 def training_flops(cfg: TrainConfig, env: EnvBase | None = None) -> TrainingFlops:

@@ -54,7 +54,11 @@ from rlhc.errors import ConfigError, EnvError
 
 #: ``env.manager_view`` values besides ``<module>:<callable>``.
 TEAM_VIEW = "team"
+WORLD_VIEW = "world"
 STATE_VIEW = "state"
+#: The views that are the same for every agent of a group: the manager critic runs once
+#: per world (:func:`~rlhc.modules.make_manager_critic`'s ``shared_view``).
+SHARED_VIEWS = (WORLD_VIEW, STATE_VIEW)
 #: The root key of the environment's global state (TorchRL's ``return_state=True``).
 STATE = "state"
 
@@ -104,7 +108,8 @@ class AgentContract(Transform):
 
     Args:
         groups: the env's groups (the top-level entries of its action spec).
-        manager_view: ``"team"``, ``"state"`` or a :data:`ManagerView` callable.
+        manager_view: ``"team"``, ``"world"``, ``"state"`` or a :data:`ManagerView`
+            callable.
         source: the environment's name in messages (e.g. ``"vmas navigation"``).
     """
 
@@ -186,6 +191,11 @@ class AgentContract(Transform):
         holds the rest of the step, e.g. the global state)."""
         if self.manager_view == TEAM_VIEW:
             return {group: self._team_view(group, obs) for group, obs in observations.items()}
+        if self.manager_view == WORLD_VIEW:
+            return {
+                group: obs.flatten(-2).unsqueeze(-2).expand(*obs.shape[:-1], -1)
+                for group, obs in observations.items()
+            }
         if self.manager_view == STATE_VIEW:
             state = tensordict.get(STATE).to(torch.float32)
             return {
@@ -339,12 +349,12 @@ def _described(spec: Any) -> str:
 
 # --- the sources -----------------------------------------------------------------------
 def _manager_view(manager_view: str) -> str | ManagerView:
-    if manager_view in (TEAM_VIEW, STATE_VIEW):
+    if manager_view in (TEAM_VIEW, WORLD_VIEW, STATE_VIEW):
         return manager_view
     if ":" not in manager_view:
         raise ConfigError(
-            f"env.manager_view={manager_view!r}; allowed: {TEAM_VIEW}, {STATE_VIEW} or "
-            "<module>:<callable>"
+            f"env.manager_view={manager_view!r}; allowed: {TEAM_VIEW}, {WORLD_VIEW}, "
+            f"{STATE_VIEW} or <module>:<callable>"
         )
     return load_callable(manager_view, "env.manager_view")
 
@@ -418,7 +428,7 @@ def make_pettingzoo_env(
         if view == STATE_VIEW and getattr(env, "state_space", None) is None:
             raise ConfigError(
                 f"env.manager_view=state: {factory} has no state() (no state_space); "
-                f"allowed: {TEAM_VIEW} or <module>:<callable>"
+                f"allowed: {TEAM_VIEW}, {WORLD_VIEW} or <module>:<callable>"
             )
         with warnings.catch_warnings():
             # TorchRL names the PettingZoo release it was tested with, once per copy.
@@ -467,7 +477,7 @@ def make_vmas_env(
     if view == STATE_VIEW:
         raise ConfigError(
             "env.manager_view=state: VMAS scenarios have no global state(); allowed: "
-            f"{TEAM_VIEW} or <module>:<callable>"
+            f"{TEAM_VIEW}, {WORLD_VIEW} or <module>:<callable>"
         )
     known = sorted({*vmas.scenarios, *vmas.mpe_scenarios, *vmas.debug_scenarios})
     if scenario not in known:

@@ -86,8 +86,11 @@ class SourceEnvConfig(EnvConfig):
     Attributes:
         manager_view: what the manager critic reads of each agent: ``team`` (the agent's
             own observation, then its group mates' in index order after it, wrapping
-            round: a centralised MAPPO critic's input), ``state`` (the environment's
-            global ``state()``, where it has one) or ``<module>:<callable>`` (a function
+            round: a centralised critic that knows whose value it gives), ``world`` (the
+            group's observations in index order, the same for every agent: the input of
+            BenchMARL's and TorchRL's MAPPO critic, run once per world), ``state`` (the
+            environment's global ``state()``, where it has one; also run once per world)
+            or ``<module>:<callable>`` (a function
             from one step's observations ``{group: [N, n_g, d_g]}`` to the manager's
             ``{group: [N, n_g, d_m]}``).
         groups: the agent groups, ``{group: [agent, ...]}``; ``None``: TorchRL's

@@ -38,7 +38,12 @@ def make_worker_critic(env: HasSpecs, group: str, cfg: NetworkConfig) -> TensorD
 
 
 def make_manager_critic(
-    env: HasSpecs, group: str, cfg: NetworkConfig, *, manager_view: bool = True
+    env: HasSpecs,
+    group: str,
+    cfg: NetworkConfig,
+    *,
+    manager_view: bool = True,
+    shared_view: bool = False,
 ) -> TensorDictModule:
     """``V_m``: reads ``(group, "manager_observation")``, writes ``(group, "manager_value")``.
 
@@ -49,6 +54,9 @@ def make_manager_critic(
         manager_view: ``False`` builds the *twin* control instead: a second, independent
             critic on the worker's own ``(group, "observation")``, whose max with the
             worker critic is as optimistic as RLHC's, without the broader view.
+        shared_view: every agent of the group has the same manager observation (a view
+            of the whole world: ``env.manager_view=world`` or ``state``): the critic runs
+            once per world and its value is every agent's, as a MAPPO critic does.
 
     Returns:
         A ``TensorDictModule`` mapping ``[*B, n_g, d_m]`` to ``[*B, n_g, 1]`` (as
@@ -56,7 +64,7 @@ def make_manager_critic(
     """
     n_agents, n_inputs = observation_size(env, group, manager=manager_view)
     return TensorDictModule(
-        group_mlp(n_inputs, 1, n_agents, cfg),
+        group_mlp(n_inputs, 1, n_agents, cfg, shared_input=manager_view and shared_view),
         in_keys=[(group, MANAGER_OBSERVATION if manager_view else OBSERVATION)],
         out_keys=[(group, MANAGER_VALUE)],
     )

@@ -18,7 +18,11 @@ class GroupMLP(nn.Module):
     parameters into a stateless copy of the network on every call.
 
     ``n_inputs`` and ``n_outputs`` are per agent; the input's agent dim is checked
-    against ``n_agents``.
+    against ``n_agents``. With ``shared_input`` every agent's input is the same (a view of
+    the whole world, as a centralised critic reads): the network runs on the first agent's
+    and its output is expanded to the others, which equals running it on each, values and
+    gradients, at ``1 / n_agents`` of the arithmetic (TorchRL's ``MultiAgentMLP`` does the
+    same when centralised with shared parameters). The caller guarantees the equality.
 
     Examples:
         >>> mlp = GroupMLP(8, 3, 2, depth=1, num_cells=16, activation_class=nn.Tanh)
@@ -36,9 +40,11 @@ class GroupMLP(nn.Module):
         num_cells: int,
         activation_class: type[nn.Module],
         activate_last_layer: bool = False,
+        shared_input: bool = False,
     ) -> None:
         super().__init__()
         self.n_agents = n_agents
+        self.shared_input = shared_input
         # Named as MultiAgentMLP names its weights: one state dict for both.
         self.params = MLP(
             in_features=n_inputs,
@@ -60,14 +66,20 @@ class GroupMLP(nn.Module):
                 f"GroupMLP of {self.n_agents} agents expects inputs [*B, {self.n_agents}, "
                 f"features], got shape {tuple(inputs.shape)}"
             )
+        if self.shared_input:
+            output = self.params(inputs[..., :1, :])
+            return output.expand(*inputs.shape[:-1], output.shape[-1])
         return self.params(inputs)
 
 
-def group_mlp(n_inputs: int, n_outputs: int, n_agents: int, cfg: NetworkConfig) -> GroupMLP:
+def group_mlp(
+    n_inputs: int, n_outputs: int, n_agents: int, cfg: NetworkConfig, *, shared_input: bool = False
+) -> GroupMLP:
     """One MLP applied to every agent of a group with the same weights.
 
     Shared weights are symmetric self-play (each agent sees the world in its own team's
     frame), and one matmul for all agents makes an update about twice as fast as a loop.
+    ``shared_input``: every agent reads the same input, run once (see :class:`GroupMLP`).
     """
     return GroupMLP(
         n_inputs,
@@ -76,4 +88,5 @@ def group_mlp(n_inputs: int, n_outputs: int, n_agents: int, cfg: NetworkConfig) 
         depth=cfg.num_layers,
         num_cells=cfg.hidden_size,
         activation_class=cfg.activation_class,
+        shared_input=shared_input,
     )

@@ -42,7 +42,7 @@ def test_both_sides_train_the_same_task_at_benchmarl_settings(
         "algo.buffer_size=18000",
         "algo.batch_size=1200",
         "critic=manager",
-        "env.manager_view=team",
+        "env.manager_view=world",
         "seed=2",
         "algo.max_steps=60000",
         "resume=auto",

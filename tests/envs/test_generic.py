@@ -10,7 +10,8 @@ import torch
 from configs import load
 from torchrl.envs.utils import check_env_specs
 
-from rlhc.building.builders import Layout
+from rlhc.building.builders import Layout, make_agents
+from rlhc.building.flops import network_flops
 from rlhc.config.validation import validate
 from rlhc.envs import make_env
 from rlhc.envs.generic import make_source_env
@@ -58,6 +59,26 @@ def test_the_team_view_puts_each_agents_own_observation_first() -> None:
     assert view.shape == (2, 2, 8)
     assert torch.equal(view[:, 0], torch.cat([obs[:, 0], obs[:, 1]], -1))
     assert torch.equal(view[:, 1], torch.cat([obs[:, 1], obs[:, 0]], -1))
+
+
+def test_the_world_view_is_every_agents_and_its_critic_runs_once() -> None:
+    td = tiny(manager_view="world").reset()
+    obs, view = td["blue", OBSERVATION], td["blue", MANAGER_OBSERVATION]
+    assert view.shape == (2, 2, 8)
+    for agent in range(2):
+        assert torch.equal(view[:, agent], torch.cat([obs[:, 0], obs[:, 1]], -1))
+    # The builder shares the manager critic's input on this view (and on state), not on team.
+    for manager_view, shared in (("world", True), ("state", True), ("team", False)):
+        cfg = load("env=pettingzoo", f"env.factory={TINY}:tiny", f"env.manager_view={manager_view}")
+        _, losses = make_agents(cfg, tiny(manager_view=manager_view))
+        mlp = losses["blue"].value_estimator.manager_value_network.module
+        assert mlp.shared_input is shared, manager_view
+    # ... and counts its arithmetic once per world: blue's two agents read 8 inputs either way.
+    flops = {
+        view: network_flops(load("env=pettingzoo", f"env.factory={TINY}:tiny", f"env.manager_view={view}"))
+        for view in ("team", "world")
+    }  # fmt: skip
+    assert flops["team"]["blue"].manager_critic == 2 * flops["world"]["blue"].manager_critic > 0
 
 
 def test_the_state_view_and_a_user_view() -> None:
@@ -118,7 +139,7 @@ def test_bad_options_are_named() -> None:
         tiny(kwargs={"colour": "green"})
     with pytest.raises(ConfigError, match=r"manager_view=state: .* has no state"):
         tiny(kwargs={"with_state": False}, manager_view="state")
-    with pytest.raises(ConfigError, match="manager_view='everyone'; allowed: team, state"):
+    with pytest.raises(ConfigError, match="manager_view='everyone'; allowed: team, world, state"):
         tiny(manager_view="everyone")
     with pytest.raises(ConfigError, match=r"env.groups="):
         tiny(groups=["blue_0"])
@@ -223,14 +244,14 @@ ONE_UPDATE = [
 ]
 
 
-@pytest.mark.parametrize("critic", CRITICS)
+@pytest.mark.parametrize("critic", [*CRITICS, "manager env.manager_view=world"])
 @pytest.mark.parametrize("task", list(TASKS))
 def test_every_critic_trains_on_every_named_task(task: str, critic: str, tmp_path: Path) -> None:
     source, option, package = TASKS[task]
     pytest.importorskip(package)
     from rlhc.training.trainer import Trainer
 
-    cfg = load(f"env={source}", option, f"critic={critic}", *ONE_UPDATE)
+    cfg = load(f"env={source}", option, *f"critic={critic}".split(), *ONE_UPDATE)
     validate(cfg)
     metrics = Trainer(cfg, tmp_path).train()
     losses = [value for key, value in metrics.items() if key.endswith("/loss_objective")]

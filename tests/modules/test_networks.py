@@ -226,3 +226,37 @@ def test_group_mlp_names_a_wrong_agent_count() -> None:
     mlp = GroupMLP(8, 3, 2, depth=1, num_cells=4, activation_class=nn.Tanh)
     with pytest.raises(ValueError, match=r"2 agents.*\(5, 3, 8\)"):
         mlp(torch.randn(5, 3, 8))
+
+
+def test_a_group_mlp_on_a_shared_input_is_torchrls_centralised_critic() -> None:
+    # On the world view (every agent reads the group's observations in index order),
+    # the shared-input GroupMLP runs once per world and equals MultiAgentMLP(centralized,
+    # share_params), the critic of TorchRL's and BenchMARL's MAPPO, weights for weights.
+    shape = {"depth": 2, "num_cells": 16, "activation_class": nn.Tanh}
+    torch.manual_seed(0)
+    reference = MultiAgentMLP(
+        n_agent_inputs=8, n_agent_outputs=1, n_agents=3, centralized=True, share_params=True,
+        **shape,
+    )  # fmt: skip
+    shared = GroupMLP(24, 1, 3, shared_input=True, **shape)
+    shared.load_state_dict(reference.state_dict())
+    observations = torch.randn(5, 3, 8)
+    world = observations.flatten(-2).unsqueeze(-2).expand(5, 3, 24)
+    torch.testing.assert_close(shared(world), reference(observations), rtol=0, atol=1e-6)
+
+
+def test_a_shared_input_gives_the_values_and_gradients_of_running_each_agent() -> None:
+    shape = {"depth": 2, "num_cells": 16, "activation_class": nn.Tanh}
+    each = GroupMLP(24, 1, 3, **shape)
+    once = GroupMLP(24, 1, 3, shared_input=True, **shape)
+    once.load_state_dict(each.state_dict())
+    world = torch.randn(5, 1, 24).expand(5, 3, 24)
+    target = torch.randn(5, 3, 1)  # per-agent targets: the agents' terms still differ
+    gradients = []
+    for mlp in (each, once):
+        value = mlp(world)
+        ((value - target) ** 2).mean().backward()
+        gradients.append([p.grad for p in mlp.parameters()])
+        torch.testing.assert_close(value, each(world), rtol=0, atol=0)
+    for a, b in zip(*gradients, strict=True):
+        torch.testing.assert_close(a, b, rtol=1e-6, atol=1e-6)
