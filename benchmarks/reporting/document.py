@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from collections import Counter
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -116,13 +117,16 @@ def build_report(
         "Generated from the numbers above (alpha = 0.05; intervals 95%):",
         "",
     ]
-    # A study without a complete run makes no statement: the others' rest on their own runs.
-    stated = {r.study for r in runs if r.complete}
-    stated_planned = sum(study.planned for name, study in plan.items() if name in stated)
-    if done < stated_planned:
+    # A study without a complete run makes no statement; one with some makes provisional ones.
+    complete = Counter(r.study for r in runs if r.complete)
+    partial = [
+        f"`{name}` ({complete[name]} of {study.planned} planned runs)"
+        for name, study in plan.items()
+        if 0 < complete[name] < study.planned
+    ]
+    if partial:
         claims += [
-            f"These statements rest on {done} of their studies' {stated_planned} planned "
-            "runs; they are provisional.",
+            f"Statements on {', '.join(partial)} rest on a partial study; they are provisional.",
             "",
         ]
     interpretation = kept.get(INTERPRETATION)
