@@ -13,6 +13,7 @@ from cli_runs import ROOT, run_in_process
 from configs import load_smoke
 
 from rlhc import evaluate, run
+from rlhc.envs import SOURCES
 from rlhc.evaluation.matches import make_match_env
 from rlhc.evaluation.opponents import make_team_policy
 from rlhc.storage.checkpoint import FORMAT_VERSION, load_checkpoint
@@ -64,7 +65,12 @@ def the_error(stderr: str, program: str) -> str:
 @pytest.mark.parametrize("team", COMMITTED_TEAMS)
 def test_every_committed_final_team_loads_and_plays(team: str) -> None:
     path = str(ROOT / team)
-    env = make_match_env(load_team(path)["env"], num_envs=1, seed=0, players=[path])
+    saved = load_team(path)  # weights_only
+    if saved["env"] in SOURCES:  # another library's env has no matches: its weights load
+        weights = [w for actor in saved["actors"].values() for w in actor.values()]
+        assert weights and all(torch.isfinite(w).all() for w in weights)
+        return
+    env = make_match_env(saved["env"], num_envs=1, seed=0, players=[path])
     try:
         actions = make_team_policy(path, env)(env.reset())
     finally:
