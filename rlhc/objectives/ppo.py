@@ -392,7 +392,7 @@ class HierarchicalPPOLoss(ClipPPOLoss):
             terms.append(term)
             split[loss_key] = term.detach()
             split[variance_key] = explained_variance(target, value, weight)
-        loss = terms[0] if len(terms) == 1 else terms[0] + terms[1]
+        loss = sum(terms[1:], terms[0])
         split[EXPLAINED_VARIANCE] = explained_variance(target, fused, weight)
         return loss, split
 
