@@ -10,15 +10,16 @@ this package is ``python -m rlhc.run`` with the preset of ``conf/recipe/<source>
 (BenchMARL's on-policy experiment in this package's units), BenchMARL's task options read
 from its task yaml, its 10 worlds per update, and
 
-=========  ==========================================  =====================
-algorithm  this package                                BenchMARL
-=========  ==========================================  =====================
-``ippo``   ``critic=ppo`` (each agent's own obs)        ``IppoConfig``
-``mappo``  ``critic=manager env.manager_view=world``    ``MappoConfig``
-=========  ==========================================  =====================
+=========  ==============================================  =================
+algorithm  this package                                    BenchMARL
+=========  ==============================================  =================
+``ippo``   ``critic=ppo`` (each agent's own obs)            ``IppoConfig``
+``mappo``  ``critic=manager env.manager_view=world|state``  ``MappoConfig``
+=========  ==============================================  =================
 
-(``world``: one critic value per world from the group's observations in index order,
-the input and output of BenchMARL's centralised critic with shared parameters.)
+(one critic value per world, the output of BenchMARL's centralised critic with shared
+parameters, from its input: the env's global ``state`` on MPE, where BenchMARL's tasks
+have one; on VMAS, which has none, the group's observations in index order, ``world``.)
 
 Both log, per update, each group's mean return over the episodes that ended in it. A
 run's score is the mean of its last five updates (30,000 frames); ``report`` compares, per
@@ -73,8 +74,14 @@ LAST_UPDATES = 5
 IMPLEMENTATIONS = ("rlhc", "benchmarl")
 ALGORITHMS = {
     "ippo": ["critic=ppo"],
-    "mappo": ["critic=manager", "env.manager_view=world"],
+    "mappo": ["critic=manager"],
 }
+#: The manager view of ``mappo`` by source. BenchMARL's MAPPO critic reads the env's global
+#: state where its task has one (``Mappo.get_critic``: ``state_spec``; its MPE tasks all
+#: have one, ``PettingZooClass.has_state``), else the group's observations (VMAS). On
+#: simple_spread the two are equal (MPE's ``state()`` concatenates every agent's
+#: observation and there is one group); on simple_tag the state also holds the other group's.
+MAPPO_VIEWS = {"vmas": "world", "pettingzoo": "state"}
 TASKS = ("vmas/navigation", "vmas/balance", "pettingzoo/simple_spread", "pettingzoo/simple_tag")
 #: Student's t, two-sided 95 %, by degrees of freedom.
 T95 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262}
@@ -153,6 +160,14 @@ def rlhc_overrides(task: str) -> list[str]:
     ]
 
 
+def algorithm_overrides(job: Job) -> list[str]:
+    """``rlhc.run`` overrides for ``job``'s algorithm on its task's source."""
+    if job.algorithm == "mappo":
+        view = MAPPO_VIEWS[job.task.split("/")[0]]
+        return [*ALGORITHMS[job.algorithm], f"env.manager_view={view}"]
+    return list(ALGORITHMS[job.algorithm])
+
+
 # --- running ------------------------------------------------------------------------------
 def command(job: Job, directory: Path | None = None) -> list[str]:
     """The command line that trains ``job`` into ``directory`` (its own by default)."""
@@ -172,7 +187,7 @@ def command(job: Job, directory: Path | None = None) -> list[str]:
         "-m",
         "rlhc.run",
         *rlhc_overrides(job.task),
-        *ALGORITHMS[job.algorithm],
+        *algorithm_overrides(job),
         f"seed={job.seed}",
         f"algo.max_steps={job.frames}",
         "threads=1",

@@ -52,6 +52,20 @@ def test_both_sides_train_the_same_task_at_benchmarl_settings(
     assert peer[2:6] == ["--task=vmas/navigation", "--algorithm=ippo", "--seed=2", "--frames=60000"]
 
 
+def test_mappo_reads_what_benchmarls_critic_reads() -> None:
+    # BenchMARL's MAPPO critic reads the env's global state on its MPE tasks, the group's
+    # observations on VMAS (no state there); IPPO reads each agent's own observation.
+    def overrides(task: str, algorithm: str) -> list[str]:
+        return peer_check.algorithm_overrides(peer_check.Job(task, algorithm, "rlhc", 0, 6000))
+
+    assert overrides("vmas/balance", "mappo") == ["critic=manager", "env.manager_view=world"]
+    assert overrides("pettingzoo/simple_tag", "mappo") == [
+        "critic=manager",
+        "env.manager_view=state",
+    ]
+    assert overrides("pettingzoo/simple_tag", "ippo") == ["critic=ppo"]
+
+
 def test_an_rlhc_curve_is_each_groups_return_per_update(tmp_path: Path) -> None:
     with (tmp_path / "metrics.csv").open("w", newline="") as file:
         writer = csv.writer(file)

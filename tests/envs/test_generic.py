@@ -89,6 +89,27 @@ def test_the_state_view_and_a_user_view() -> None:
     assert torch.allclose(td["blue", MANAGER_OBSERVATION][:, 1], td["blue", OBSERVATION].sum(1))
 
 
+def test_on_simple_spread_the_state_view_is_the_world_view() -> None:
+    # MPE's state() concatenates every agent's observation and simple_spread has one group:
+    # the two views give the manager critic the same input, step for step, across resets.
+    pytest.importorskip("mpe2")
+    kwargs = {"N": 3, "max_cycles": 5, "continuous_actions": True}
+    views = {}
+    for view in ("world", "state"):
+        torch.manual_seed(0)  # the random actions of rollout()
+        env = make_source_env(
+            "pettingzoo",
+            num_envs=2,
+            seed=0,
+            factory="mpe2.simple_spread_v3:parallel_env",
+            kwargs=kwargs,
+            manager_view=view,
+        )
+        views[view] = env.rollout(8, break_when_any_done=False)[NEXT, "agent", MANAGER_OBSERVATION]
+    assert views["world"].shape == (2, 8, 3, 54)
+    assert torch.equal(views["world"], views["state"])
+
+
 def test_seeded_envs_repeat_themselves() -> None:
     rollouts = []
     for _ in range(2):
