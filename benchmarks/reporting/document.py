@@ -42,7 +42,7 @@ from .statistics import (
     steps_to_reach,
     threshold,
 )
-from .study import PLAY_METRIC, THRESHOLD_FRACTION, lenders, table_configs
+from .study import PLAY_METRIC, THRESHOLD_FRACTION, groups_of, lenders, table_configs
 
 #: The hand-written block, kept from the previous document.
 INTERPRETATION = "interpretation"
@@ -295,7 +295,13 @@ def study_section(
     section, comparisons = finals_section(study, runs, args.threshold_fraction)
     lines += [f"![{study.name} curves]({link})", ""]
     if study.task is not None:
-        lines += [returns_note(members), "", *section, "", *speed_table(study, runs)]
+        lines += [
+            returns_note(members, groups_of(study, runs)),
+            "",
+            *section,
+            "",
+            *speed_table(study, runs),
+        ]
         more: list[str] = []
     else:
         efficiency, more = efficiency_section(study, runs)

@@ -41,8 +41,10 @@ def task_lines(study: Study) -> list[str]:
     ]
 
 
-def returns_note(members: Sequence[StudyRun]) -> str:
-    """What the study's figure and tables show: the groups' returns, and how finals are made."""
+def returns_note(members: Sequence[StudyRun], groups: Sequence[str]) -> str:
+    """What the study's figure and tables show: the groups' returns, and how finals are made;
+    with several ``groups``, that each group's return is measured against the others'
+    learners of the same run."""
     return (
         f"The paper's four metrics, mean over complete seeds with a 95% t band, EMA "
         f"{SMOOTHING} smoothing; a group's cumulative reward is an episode's return averaged "
@@ -50,6 +52,19 @@ def returns_note(members: Sequence[StudyRun]) -> str:
         "the number the critics are compared by. "
         + finals_note("steps, lengths, speeds")
         + f" Here the final window holds {window_points(members)} logged points per run."
+        + (contest_note(groups) if len(groups) > 1 else "")
+    )
+
+
+def contest_note(groups: Sequence[str]) -> str:
+    """Why a group's return, with several groups, does not rank its critic alone."""
+    names = ", ".join(f"`{group}`" for group in groups)
+    return (
+        f" Its groups ({names}) all learn with the run's critic, each against the others: "
+        "where their rewards oppose, a configuration's return for one group is the outcome "
+        "of a contest between two learners of that configuration, so a difference between "
+        "configurations compares two contests, not one group's learner against a fixed "
+        "opponent."
     )
 
 

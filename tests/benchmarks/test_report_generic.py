@@ -105,6 +105,7 @@ def test_a_generic_study_compares_each_groups_return_and_plays_no_matches(
         "100 frames per run." in section
     )
     assert "left out of the aggregates over games" in section
+    assert "groups (`adversary`, `agent`) all learn with the run's critic" in section
     # The groups are the runs' own, each with its finals over seeds and their interval.
     runs = discover(tag)
     assert groups_of(tag["tag"], runs) == ("adversary", "agent")
