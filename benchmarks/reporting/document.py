@@ -23,7 +23,7 @@ from .efficiency import efficiency_section
 from .environment import machine, versions
 from .figures import draw_study_curves
 from .formatting import fmt_interval, fmt_reach, positive_interval, share_interval, table
-from .generic import returns_note, speed_table, task_lines
+from .generic import cross_play_lines, returns_note, speed_table, task_lines
 from .markdown import (
     drift_lines,
     finals_section,
@@ -295,13 +295,11 @@ def study_section(
     section, comparisons = finals_section(study, runs, args.threshold_fraction)
     lines += [f"![{study.name} curves]({link})", ""]
     if study.task is not None:
-        lines += [
-            returns_note(members, groups_of(study, runs)),
-            "",
-            *section,
-            "",
-            *speed_table(study, runs),
-        ]
+        groups = groups_of(study, runs)
+        lines += [returns_note(members, groups), "", *section, ""]
+        if len(groups) > 1:
+            lines += [*cross_play_lines(study), ""]
+        lines += speed_table(study, runs)
         more: list[str] = []
     else:
         efficiency, more = efficiency_section(study, runs)

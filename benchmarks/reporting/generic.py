@@ -11,11 +11,15 @@ whose score is a match score.
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Sequence
 
-from .formatting import table
+from rlhc.evaluation.stats import t_interval
+
+from ..cross_play import FILE, advantages, read_rows
+from .formatting import fmt_interval, table
 from .markdown import finals_note, speed_cells
-from .plan import Study
+from .plan import ROOT, Study
 from .runs import StudyRun, complete_runs
 from .statistics import window_points
 from .study import SMOOTHING, table_configs
@@ -64,8 +68,45 @@ def contest_note(groups: Sequence[str]) -> str:
         "where their rewards oppose, a configuration's return for one group is the outcome "
         "of a contest between two learners of that configuration, so a difference between "
         "configurations compares two contests, not one group's learner against a fixed "
-        "opponent."
+        "opponent. The cross-play below compares the learners."
     )
+
+
+def cross_play_lines(study: Study) -> list[str]:
+    """The study's cross-play (``<root>/cross_play.csv``, :mod:`benchmarks.cross_play`):
+    each group's advantage per pair of configurations, mean over seeds [95% t]."""
+    command = f"python -m benchmarks.cross_play {os.path.relpath(study.root, ROOT)}"
+    values = [
+        v
+        for v in advantages(read_rows(study.root / FILE))
+        if {v.first, v.second} <= set(study.configs)
+    ]
+    if not values:
+        return [f"**Cross-play** — not played yet: `{command}` plays it (from the final teams)."]
+    seeds: dict[tuple[str, str, str], list[float]] = {}
+    for value in values:
+        seeds.setdefault((value.group, value.first, value.second), []).append(value.value)
+    rows = []
+    for (group, first, second), per_seed in sorted(seeds.items()):
+        interval = t_interval(per_seed)
+        verdict = "no difference shown"
+        if interval.n >= 2 and interval.low > 0:
+            verdict = f"`{first}`'s {group} better"
+        elif interval.n >= 2 and interval.high < 0:
+            verdict = f"`{second}`'s {group} better"
+        cells = [f"`{first}` vs `{second}`", group, str(interval.n), fmt_interval(interval)]
+        rows.append([*cells, verdict])
+    episodes = sorted({row["episodes"] for row in read_rows(study.root / FILE)})
+    return [
+        f"**Cross-play** (`{command}`): at each seed both configurations finished, every "
+        "lineup of their final teams (each group played by either) plays the same "
+        f"{'/'.join(episodes)} episodes with mode actions; a group's *advantage* is how much "
+        "more it returns when the first configuration plays it than when the second does, "
+        "against the same opponents (the mean over the opponents' two assignments). Mean "
+        "over seeds [95% t]; a verdict where the interval excludes 0:",
+        "",
+        *table(["pair", "group", "seeds", "advantage", "verdict"], rows),
+    ]
 
 
 def speed_table(study: Study, runs: Sequence[StudyRun]) -> list[str]:

@@ -1,4 +1,4 @@
-"""Competition evaluation: head-to-head matches, Elo ratings, videos.
+"""Competition evaluation: head-to-head matches, Elo ratings, videos, cross-play.
 
 | module | holds |
 |---|---|
@@ -7,6 +7,7 @@
 | :mod:`~rlhc.evaluation.opponents` | team policies: ``random``, ``scripted``, checkpoints |
 | :mod:`~rlhc.evaluation.matches` | batched matches between two teams, :func:`evaluate_against` |
 | :mod:`~rlhc.evaluation.video` | a match rendered to GIF or MP4 with a score overlay |
+| :mod:`~rlhc.evaluation.cross_play` | on another library's env of competing groups: each group of one run against the others of another |
 
 The modules that need TorchRL are imported on first use, so that ``rlhc.plot`` starts quickly.
 
@@ -27,6 +28,8 @@ from rlhc.evaluation.stats import t_interval, welch_t_test, wilson_interval
 
 #: Lazily imported names -> their module.
 _LAZY = {
+    "CrossPlay": "rlhc.evaluation.cross_play",
+    "cross_play": "rlhc.evaluation.cross_play",
     "MatchResult": "rlhc.evaluation.matches",
     "evaluate_against": "rlhc.evaluation.matches",
     "play_matches": "rlhc.evaluation.matches",

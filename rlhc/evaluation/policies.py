@@ -25,6 +25,7 @@ from rlhc.building.normalisation import SafeVecNorm
 from rlhc.config.train_schema import TrainConfig
 from rlhc.envs.keys import ACTION
 from rlhc.envs.registry import game_spec
+from rlhc.envs.schemas import SOURCE_SCHEMAS
 from rlhc.modules import make_actor
 
 #: Env config fields that do not change what a policy observes.
@@ -43,7 +44,7 @@ RENAMED_POLICIES = {"tanh_normal_exact": "tanh_normal"}
 
 def checkpoint_config(state: Mapping[str, Any]) -> TrainConfig:
     """The checkpoint's training config as a typed :class:`TrainConfig`
-    (:class:`ValueError` if its game is not registered)."""
+    (:class:`ValueError` if its env is neither a registered game nor another library's)."""
     config = OmegaConf.create(state["config"])
     for section, keys in RETIRED_SETTINGS.items():
         for key in keys:
@@ -51,7 +52,9 @@ def checkpoint_config(state: Mapping[str, Any]) -> TrainConfig:
     # Teams older than the setting were TanhNormal policies.
     policy = config.model.get("action_dist") or "tanh_normal"
     config.model.action_dist = RENAMED_POLICIES.get(policy, policy)
-    schema = OmegaConf.structured(TrainConfig(env=game_spec(state["env"]).env_config()))
+    name = state["env"]
+    env = SOURCE_SCHEMAS[name]() if name in SOURCE_SCHEMAS else game_spec(name).env_config()
+    schema = OmegaConf.structured(TrainConfig(env=env))
     return OmegaConf.to_object(OmegaConf.merge(schema, config))  # type: ignore[return-value]
 
 
@@ -93,10 +96,11 @@ class RestoredPolicy:
 
     def __call__(self, tensordict: TensorDictBase) -> dict[str, torch.Tensor]:
         """Actions of every agent of every group (the input is not modified)."""
-        return {
-            group: actor(self.inputs(group, tensordict))[group, ACTION]
-            for group, actor in self.actors.items()
-        }
+        return {group: self.act(group, tensordict) for group in self.actors}
+
+    def act(self, group: str, tensordict: TensorDictBase) -> torch.Tensor:
+        """Actions of the agents of ``group`` (the input is not modified)."""
+        return self.actors[group](self.inputs(group, tensordict))[group, ACTION]
 
     def inputs(self, group: str, tensordict: TensorDictBase) -> TensorDictBase:
         """What the actor of ``group`` reads, normalised, in a new tensordict."""

@@ -181,3 +181,37 @@ def test_claims_are_provisional_only_where_their_own_studies_are_partial(
     claims = blocks_of(build_report(args, plan={**tag, **unrun}))["claims"]
     assert "Statements on `tag` (8 of 9 planned runs) rest on a partial study; they are " \
         "provisional." in claims  # fmt: skip
+
+
+def test_a_contest_shows_its_cross_play_where_it_was_played(
+    tag: dict[str, Study], tmp_path: Path
+) -> None:
+    args = report_cli.parse_args(["--out", str(tmp_path / "RESULTS.md"), "--no-figures"])
+    section = blocks_of(build_report(args, plan=tag))["study tag"]
+    assert "**Cross-play** — not played yet: `python -m benchmarks.cross_play " in section
+    # hierarchical's adversaries return more than ppo's against the same agents at seeds
+    # 0 to 2 (+2, +3, +2.5); the agents' advantage is 0 at all three.
+    rows = []
+    for seed, edge in ((0, 2.0), (1, 3.0), (2, 2.5)):
+        for adversary, agent in (("hierarchical", "hierarchical"), ("hierarchical", "ppo"),
+                                 ("ppo", "hierarchical"), ("ppo", "ppo")):  # fmt: skip
+            rows.append(
+                {
+                    "seed": seed, "first": "hierarchical", "second": "ppo", "episodes": 50,
+                    "adversary_plays": adversary, "agent_plays": agent,
+                    "adversary_return": 10.0 + (edge if adversary == "hierarchical" else 0.0),
+                    "agent_return": -5.0,
+                }
+            )  # fmt: skip
+    with (tag["tag"].root / "cross_play.csv").open("w", newline="") as f:
+        writer = csv.DictWriter(f, list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    section = blocks_of(build_report(args, plan=tag))["study tag"]
+    assert "same 50 episodes with mode actions" in section
+    edge, none = fmt_interval(t_interval([2.0, 3.0, 2.5])), fmt_interval(t_interval([0.0] * 3))
+    assert (
+        f"| `hierarchical` vs `ppo` | adversary | 3 | {edge} | `hierarchical`'s adversary better |"
+        in section
+    )
+    assert f"| `hierarchical` vs `ppo` | agent | 3 | {none} | no difference shown |" in section
