@@ -153,13 +153,13 @@ def cross_play(
     states = [load_team(run) for run in runs]
     options = shared_env_options(runs, states)
     name = str(states[0]["env"])
-    env = make_env(name, num_envs=num_envs, seed=seed, **options)
+    env = returns_env(name, num_envs, seed, options)
     groups = tuple(group_names(env))
     policies = [restore_policy(state, env) for state in states]
     env.close()
     returns = {}
     for lineup in lineups(groups, len(runs)):
-        env = make_env(name, num_envs=num_envs, seed=seed, **options)
+        env = returns_env(name, num_envs, seed, options)  # the same episodes for each
         sides = {group: policies[run] for group, run in zip(groups, lineup, strict=True)}
         returns[lineup] = play_episodes(env, sides, episodes, deterministic=deterministic)
         env.close()
@@ -195,6 +195,19 @@ def shared_env_options(runs: Sequence[str], states: Sequence[Mapping[str, Any]])
     return options[0]
 
 
+def returns_env(name: str, num_envs: int, seed: int, options: Mapping[str, Any]) -> TransformedEnv:
+    """The environment ``name`` with ``options``, writing each group's return so far
+    (``(group, "episode_reward")``, TorchRL's ``RewardSum``)."""
+    env = make_env(name, num_envs=num_envs, seed=seed, **options)
+    groups = group_names(env)
+    env.append_transform(
+        RewardSum(
+            in_keys=[(g, REWARD) for g in groups], out_keys=[(g, EPISODE_REWARD) for g in groups]
+        )
+    )
+    return env
+
+
 def play_episodes(
     env: TransformedEnv,
     sides: Mapping[str, RestoredPolicy],
@@ -202,8 +215,8 @@ def play_episodes(
     *,
     deterministic: bool = True,
 ) -> dict[str, torch.Tensor]:
-    """Each group's return over ``episodes`` episodes of ``env``, ``sides[group]``
-    acting for ``group``.
+    """Each group's return over ``episodes`` episodes of ``env`` (:func:`returns_env`),
+    ``sides[group]`` acting for ``group``.
 
     Returns:
         ``group -> [E]``: each episode's return, averaged over the group's agents, in the
@@ -211,11 +224,6 @@ def play_episodes(
         ``E`` episodes (so that short episodes are not over-represented).
     """
     groups = list(sides)
-    env.append_transform(
-        RewardSum(
-            in_keys=[(g, REWARD) for g in groups], out_keys=[(g, EPISODE_REWARD) for g in groups]
-        )
-    )
     worlds = int(env.batch_size[0])
     quota = math.ceil(episodes / worlds)
     finished = torch.zeros(worlds, dtype=torch.long)
@@ -243,4 +251,5 @@ __all__ = [
     "group_advantage",
     "lineups",
     "play_episodes",
+    "returns_env",
 ]
