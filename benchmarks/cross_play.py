@@ -89,8 +89,8 @@ def advantages(rows: Iterable[dict[str, str]]) -> list[Advantage]:
 
 
 def play(root: Path, configs: Sequence[str], episodes: int) -> Path:
-    """Play every pair of ``configs`` at every seed both finished and not yet in the file;
-    append their rows to ``<root>/cross_play.csv``."""
+    """Play every pair of ``configs`` at every seed both finished and not yet in the file
+    (in either order); append their rows to ``<root>/cross_play.csv``."""
     from rlhc.evaluation.cross_play import cross_play
 
     path = root / FILE
@@ -98,8 +98,8 @@ def play(root: Path, configs: Sequence[str], episodes: int) -> Path:
     played = {(row["seed"], row["first"], row["second"]) for row in rows}
     for first, second in itertools.combinations(configs, 2):
         for seed in sorted(seeds_of(root, first) & seeds_of(root, second)):
-            if (str(seed), first, second) in played:
-                continue
+            if {(str(seed), first, second), (str(seed), second, first)} & played:
+                continue  # in either order
             runs = [str(root / config / f"seed_{seed}") for config in (first, second)]
             result = cross_play(runs, episodes, seed=seed)
             names = dict(zip(runs, (first, second), strict=True))

@@ -60,7 +60,7 @@ def test_each_pair_and_seed_is_played_once(tmp_path: Path, monkeypatch: pytest.M
     for value in benchmark.advantages(written):
         assert value.value == pytest.approx(direct.group_advantage(value.group, 0, 1))
     monkeypatch.setattr("rlhc.evaluation.cross_play.cross_play", pytest.fail)
-    benchmark.play(root, ["ppo", "twin"], episodes=2)  # nothing left to play
+    benchmark.play(root, ["twin", "ppo"], episodes=2)  # nothing left to play
     assert benchmark.read_rows(path) == written
 
 
