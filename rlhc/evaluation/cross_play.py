@@ -63,6 +63,9 @@ def group_advantage(
         means: ``lineup -> group -> mean return``, a lineup naming who plays each of
             ``groups``; it holds every lineup of ``first`` and ``second``.
 
+    Raises:
+        ValueError: ``group`` is not one of ``groups``.
+
     Examples:
         Predators of ``a`` catch 2 more than those of ``b`` against either's prey:
 
@@ -71,6 +74,8 @@ def group_advantage(
         >>> group_advantage(means, ["predator", "prey"], "predator", "a", "b")
         2.0
     """
+    if group not in groups:
+        raise ValueError(f"group {group!r}; allowed: one of {list(groups)}")
     index = list(groups).index(group)
     differences = [
         returns[group] - means[(*lineup[:index], second, *lineup[index + 1 :])][group]

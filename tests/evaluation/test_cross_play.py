@@ -49,6 +49,8 @@ def test_a_groups_return_is_its_own_runs_where_its_rewards_are_its_own(
         expected = result.mean(ours, group) - result.mean(theirs, group)
         assert result.group_advantage(group, 0, 1) == pytest.approx(expected)
         assert result.group_advantage(group, 1, 0) == pytest.approx(-expected)
+    with pytest.raises(ValueError, match=r"group 'green'; allowed: one of \['blue', 'red'\]"):
+        result.group_advantage("green", 0, 1)
     # The two runs' teams differ (else the checks above could not fail).
     assert result.mean((0, 0), "blue") != result.mean((1, 1), "blue")
 
