@@ -42,7 +42,15 @@ from .statistics import (
     steps_to_reach,
     threshold,
 )
-from .study import PLAY_METRIC, THRESHOLD_FRACTION, groups_of, lenders, table_configs
+from .study import (
+    ALPHA,
+    PLAY_METRIC,
+    POWER,
+    THRESHOLD_FRACTION,
+    groups_of,
+    lenders,
+    table_configs,
+)
 
 #: The hand-written block, kept from the previous document.
 INTERPRETATION = "interpretation"
@@ -114,7 +122,11 @@ def build_report(
     claims = [
         "## What the numbers say",
         "",
-        "Generated from the numbers above (alpha = 0.05; intervals 95%):",
+        f"Generated from the numbers above (alpha = {ALPHA}; intervals 95%). A Welch test "
+        "decides on its p Holm-corrected over its table (a study's finals, or one measure "
+        "of its sample efficiency). A test that finds no difference does not show there "
+        "is none: its line gives the smallest difference its seeds would detect with "
+        f"power {POWER}:",
         "",
     ]
     # A study without a complete run makes no statement; one with some makes provisional ones.

@@ -28,7 +28,7 @@ from rlhc.analysis.curves import Run
 from .formatting import fmt_interval, positive_interval, share_interval, table
 from .plan import Study
 from .runs import StudyRun, complete_runs
-from .statistics import Comparison, smoothed
+from .statistics import Comparison, corrected, smoothed
 from .study import PLAY_METRIC, SMOOTHING, comparisons_of, table_configs
 
 #: Shares of the budget at which the curves are read.
@@ -158,10 +158,12 @@ def efficiency_section(study: Study, runs: Sequence[StudyRun]) -> tuple[list[str
             *table(["config", *marks, "mean over training"], rows),
             "",
         ]
-        for first, second in comparisons_of(study):
-            if areas.get(first) and areas.get(second):
-                comparison = Comparison(
-                    first, second, "team", tuple(areas[first]), tuple(areas[second])
-                )
-                verdicts.append(comparison.verdict(f"mean {measure.title} over training"))
+        comparisons = [
+            Comparison(first, second, "team", tuple(areas[first]), tuple(areas[second]))
+            for first, second in comparisons_of(study)
+            if areas.get(first) and areas.get(second)
+        ]
+        verdicts += [
+            c.verdict(f"mean {measure.title} over training") for c in corrected(comparisons)
+        ]
     return lines, verdicts

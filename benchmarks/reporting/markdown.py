@@ -17,8 +17,8 @@ from rlhc.evaluation.stats import t_interval
 from .formatting import fmt, fmt_interval, fmt_reach, positive_interval, table
 from .plan import TASK_KEYS, Study
 from .runs import StudyRun, complete_runs, config_drift
-from .statistics import Comparison, config_finals, fill_reach, finite, window_points
-from .study import PLAY_METRIC, SMOOTHING, comparisons_of, groups_of, table_configs
+from .statistics import Comparison, config_finals, corrected, fill_reach, finite, window_points
+from .study import ALPHA, PLAY_METRIC, POWER, SMOOTHING, comparisons_of, groups_of, table_configs
 
 #: Table 3 of the paper: recorded config key -> its row label.
 SETTINGS = (
@@ -210,9 +210,10 @@ def finals_section(
         for rlhc, ppo in comparisons_of(study):
             a, b = by_name[rlhc], by_name[ppo]
             comparisons.append(Comparison(rlhc, ppo, group, tuple(a.reward), tuple(b.reward)))
+    comparisons = corrected(comparisons)
     rows = []
     for c in comparisons:
-        result = c.test()
+        result, detectable = c.test(), c.detectable()
         diff = (
             float(np.mean(c.rlhc_values) - np.mean(c.ppo_values))
             if c.rlhc_values and c.ppo_values
@@ -226,6 +227,8 @@ def finals_section(
                 fmt(diff),
                 f"{result[0]:.3f}" if result else "—",
                 f"{result[1]:.3g}" if result else "— (needs ≥ 2 seeds per side)",
+                f"{c.family_p:.3g}" if c.family_p is not None else "—",
+                fmt(detectable) if detectable is not None else "—",
             ]
         )
     lines += [
@@ -233,9 +236,25 @@ def finals_section(
         "paper's critics pairwise: hierarchical, twin, PPO; for the extensions, each vs "
         "`tennis_paper`'s hierarchical and PPO). Samples: one value "
         "per completed seed — the mean of the last 10% (by steps) of that run's "
-        f"TensorBoard-smoothed (EMA {SMOOTHING}) `<group>/cumulative_reward` curve.",
+        f"TensorBoard-smoothed (EMA {SMOOTHING}) `<group>/cumulative_reward` curve. "
+        f"Holm's p corrects for the {sum(c.testable for c in comparisons)} tests of this "
+        "table (a difference is claimed below only where it is under alpha); *detectable* "
+        f"is the smallest mean difference these seeds find with power {POWER} at alpha "
+        f"{ALPHA} (Welch, from the measured spread; optimistic at 3 seeds a side).",
         "",
-        *table(["first vs second", "group", "seeds", "mean difference", "t", "p"], rows),
+        *table(
+            [
+                "first vs second",
+                "group",
+                "seeds",
+                "mean difference",
+                "t",
+                "p",
+                "p (Holm)",
+                "detectable",
+            ],
+            rows,
+        ),
     ]
     return lines, comparisons
 

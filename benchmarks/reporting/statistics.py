@@ -4,23 +4,25 @@ A run's *final* value of a metric is the mean of the last 10% (by steps) of its
 TensorBoard-smoothed curve (EMA 0.8, as ``python -m rlhc.plot``); a configuration's
 finals are averaged over seeds with a 95% Student t interval
 (:func:`rlhc.evaluation.stats.t_interval`) and compared with Welch's t-test
-(:func:`rlhc.evaluation.stats.welch_t_test`).
+(:func:`rlhc.evaluation.stats.welch_t_test`), its p-values Holm-corrected over the
+study's tests of one table (:func:`corrected`), each with the smallest difference its
+seeds detect (:func:`rlhc.evaluation.stats.welch_detectable_difference`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from rlhc.analysis.curves import Run, ema_smooth, final_values
-from rlhc.evaluation.stats import t_interval, welch_t_test
+from rlhc.evaluation.stats import holm, t_interval, welch_detectable_difference, welch_t_test
 
 from .formatting import fmt
 from .runs import StudyRun
-from .study import ALPHA, FINAL_FRACTION, SMOOTHING, THRESHOLD_FRACTION
+from .study import ALPHA, FINAL_FRACTION, POWER, SMOOTHING, THRESHOLD_FRACTION
 
 
 def smoothed(run: Run, metric: str, smoothing: float = SMOOTHING) -> tuple[np.ndarray, np.ndarray]:
@@ -141,13 +143,19 @@ def fill_reach(
 
 @dataclass(frozen=True)
 class Comparison:
-    """Welch's test of RLHC's per-seed final values against PPO's."""
+    """Welch's test of one configuration's per-seed values against another's.
+
+    ``family_p`` is the p-value Holm-corrected over the family the test belongs to
+    (:func:`corrected`), ``family`` that family's size; a test alone is its own family.
+    """
 
     rlhc: str
     ppo: str
     group: str
     rlhc_values: tuple[float, ...]
     ppo_values: tuple[float, ...]
+    family_p: float | None = None
+    family: int = 1
 
     @property
     def testable(self) -> bool:
@@ -158,8 +166,14 @@ class Comparison:
         """``(t, p)`` of Welch's test, ``None`` if not :attr:`testable`."""
         return welch_t_test(self.rlhc_values, self.ppo_values) if self.testable else None
 
+    def detectable(self) -> float | None:
+        """The smallest difference these seeds detect at ``ALPHA`` with power 0.8."""
+        if not self.testable:
+            return None
+        return welch_detectable_difference(self.rlhc_values, self.ppo_values, ALPHA, POWER)
+
     def verdict(self, what: str = "final cumulative reward") -> str:
-        """A neutral sentence generated from the numbers."""
+        """A neutral sentence generated from the numbers, significance after Holm's."""
         a, b = t_interval(self.rlhc_values), t_interval(self.ppo_values)
         means = f"{fmt(a.mean)} (n={a.n}) vs {fmt(b.mean)} (n={b.n})"
         result = self.test()
@@ -169,13 +183,27 @@ class Comparison:
                 f"Welch's test needs at least 2 completed seeds per side; {means}."
             )
         t, p = result
-        if p < ALPHA:
+        family_p = p if self.family_p is None else self.family_p
+        holm_note = f", Holm p = {family_p:.3g} over {self.family} tests" if self.family > 1 else ""
+        if family_p < ALPHA:
             direction = "higher" if t > 0 else "lower"
             return (
                 f"`{self.rlhc}`'s {self.group} {what} is {direction} than `{self.ppo}`'s "
-                f"(Welch t = {t:.2f}, p = {p:.3g}; {means})."
+                f"(Welch t = {t:.2f}, p = {p:.3g}{holm_note}; {means})."
             )
+        lean = f" (p < {ALPHA} alone, not after Holm's correction)" if p < ALPHA else ""
         return (
             f"`{self.rlhc}`'s {self.group} {what} is not significantly different from "
-            f"`{self.ppo}`'s (Welch t = {t:.2f}, p = {p:.3g}, alpha = {ALPHA}; {means})."
+            f"`{self.ppo}`'s{lean} (Welch t = {t:.2f}, p = {p:.3g}{holm_note}, alpha = "
+            f"{ALPHA}; {means}; detectable at power {POWER}: {fmt(self.detectable())})."
         )
+
+
+def corrected(comparisons: Sequence[Comparison]) -> list[Comparison]:
+    """``comparisons`` with Holm's p over their testable members, one family."""
+    p_values = {i: result[1] for i, c in enumerate(comparisons) if (result := c.test())}
+    adjusted = dict(zip(p_values, holm(list(p_values.values())), strict=True))
+    return [
+        replace(c, family_p=adjusted[i], family=len(adjusted)) if i in adjusted else c
+        for i, c in enumerate(comparisons)
+    ]

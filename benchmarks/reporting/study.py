@@ -19,6 +19,8 @@ SMOOTHING = 0.8  # TensorBoard's EMA weight, as ``python -m rlhc.plot``
 FINAL_FRACTION = 0.1  # the last 10% of each curve, by steps
 THRESHOLD_FRACTION = 0.5  # share of the way from the initial to the best final reward
 ALPHA = 0.05
+#: The power at which a study states the smallest difference its seeds detect.
+POWER = 0.8
 #: game -> its group metrics' groups.
 GROUPS = {"tennis": ("racket",), "soccer": ("striker", "goalie")}
 

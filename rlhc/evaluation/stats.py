@@ -3,7 +3,8 @@
 * Win rates: **Wilson's score interval**, which, unlike the normal one, stays inside
   [0, 1] and keeps its coverage for small samples and rates near 0 or 1.
 * Means over a few seeds: the **Student t** interval; two configurations compared with
-  **Welch's t-test** (unequal variances).
+  **Welch's t-test** (unequal variances), the smallest difference it detects at a given
+  power, and **Holm's** correction over a family of tests.
 * Over tasks and seeds, as Agarwal et al. (2021, ``rliable``) recommend: the
   **interquartile mean** and the **probability of improvement** ``P(X > Y)``, each with
   a stratified bootstrap interval (scipy's ``bootstrap``).
@@ -115,6 +116,62 @@ def welch_t_test(
         )
     result = scipy_stats.ttest_ind(first, second, equal_var=False)
     return float(result.statistic), float(result.pvalue)
+
+
+def welch_detectable_difference(
+    a: Sequence[float] | np.ndarray,
+    b: Sequence[float] | np.ndarray,
+    alpha: float = 0.05,
+    power: float = 0.8,
+) -> float:
+    """The smallest difference of means Welch's test finds with ``power`` at level ``alpha``.
+
+    From the two samples' own spread and sizes: ``(t_{1-alpha/2} + t_power) · se`` with
+    ``se = sqrt(s_a²/n_a + s_b²/n_b)`` and the Welch–Satterthwaite degrees of freedom,
+    the usual approximation. It takes the measured spread as the true one and so is
+    optimistic at very few seeds: simulated with normal seeds of equal spread, the
+    power at this difference is 0.70 at 3 seeds a side, 0.77 at 5 and 0.80 at 10. A
+    difference smaller than this may well exist and go unseen by these seeds.
+
+    Examples:
+        >>> round(welch_detectable_difference([0.0, 1.0, 2.0], [0.0, 1.0, 2.0]), 3)
+        3.035
+    """
+    if not 0.0 < alpha < 1.0 or not 0.0 < power < 1.0:
+        raise ValueError(f"alpha and power must lie in (0, 1), got {alpha} and {power}")
+    first, second = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if first.size < 2 or second.size < 2:
+        raise ValueError(
+            f"a detectable difference needs >= 2 values per side, got {first.size} and "
+            f"{second.size}"
+        )
+    var_a, var_b = first.var(ddof=1) / first.size, second.var(ddof=1) / second.size
+    se = math.sqrt(var_a + var_b)
+    if se == 0.0:
+        return 0.0
+    df = (var_a + var_b) ** 2 / (var_a**2 / (first.size - 1) + var_b**2 / (second.size - 1))
+    quantiles = scipy_stats.t.ppf(1.0 - alpha / 2.0, df) + scipy_stats.t.ppf(power, df)
+    return float(quantiles * se)
+
+
+def holm(p_values: Sequence[float]) -> list[float]:
+    """Holm's step-down adjusted p-values: a family of tests at family-wise level alpha.
+
+    Rejecting every test whose adjusted p is below alpha keeps the chance of any false
+    rejection in the family at most alpha, with more power than Bonferroni. The order
+    of the input is kept.
+
+    Examples:
+        >>> holm([0.01, 0.04, 0.03])
+        [0.03, 0.06, 0.06]
+    """
+    order = sorted(range(len(p_values)), key=lambda i: p_values[i])
+    adjusted = [math.nan] * len(p_values)
+    running = 0.0
+    for rank, index in enumerate(order):
+        running = max(running, min(1.0, (len(p_values) - rank) * p_values[index]))
+        adjusted[index] = running
+    return adjusted
 
 
 # --- aggregates over tasks and seeds (Agarwal et al. 2021, "rliable") ------------------

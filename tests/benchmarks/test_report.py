@@ -32,6 +32,7 @@ from benchmarks.reporting.standings import STORE, study_matches
 from benchmarks.reporting.statistics import (
     Comparison,
     config_finals,
+    corrected,
     fill_reach,
     initial_value,
     smoothed_final,
@@ -317,6 +318,24 @@ def test_comparison_uses_per_seed_values_and_words_the_result() -> None:
     assert "not significantly different" in same.verdict()
     single = Comparison("a", "b", "racket", (0.5,), (0.1, 0.2))
     assert single.test() is None and "not testable yet" in single.verdict()
+
+
+def test_comparisons_are_decided_on_holm_over_their_family() -> None:
+    # p = 2.6e-4 and p ~ 0.04 alone; over a family of three, Holm keeps the first (x 3)
+    # and not the second (x 2 = 0.08), and names the correction in both sentences.
+    strong = Comparison("a", "b", "racket", (1.0, 1.1, 0.9), (0.0, 0.1, -0.1))
+    weak = Comparison("a", "c", "racket", (1.0, 1.2, 1.4, 1.1), (0.9, 0.8, 1.0, 0.7))
+    null = Comparison("b", "c", "racket", (0.0, 1.0), (0.1, 0.9))
+    untestable = Comparison("c", "d", "racket", (0.5,), (0.1, 0.2))
+    assert weak.test()[1] < 0.05 and "higher than" in weak.verdict()
+    family = corrected([strong, weak, null, untestable])
+    assert [c.family for c in family[:3]] == [3, 3, 3] and family[3] is untestable
+    assert family[0].family_p == pytest.approx(3 * strong.test()[1])
+    assert "higher than `b`'s" in family[0].verdict() and "over 3 tests" in family[0].verdict()
+    sentence = family[1].verdict()
+    assert "not significantly different" in sentence and "not after Holm's" in sentence
+    assert f"detectable at power 0.8: {fmt(weak.detectable())}" in sentence
+    assert untestable.detectable() is None
 
 
 def test_formatting() -> None:
