@@ -211,6 +211,7 @@ def finals_section(
             a, b = by_name[rlhc], by_name[ppo]
             comparisons.append(Comparison(rlhc, ppo, group, tuple(a.reward), tuple(b.reward)))
     comparisons = corrected(comparisons)
+    tests = sum(c.testable for c in comparisons)
     rows = []
     for c in comparisons:
         result, detectable = c.test(), c.detectable()
@@ -237,8 +238,9 @@ def finals_section(
         "`tennis_paper`'s hierarchical and PPO). Samples: one value "
         "per completed seed — the mean of the last 10% (by steps) of that run's "
         f"TensorBoard-smoothed (EMA {SMOOTHING}) `<group>/cumulative_reward` curve. "
-        f"Holm's p corrects for the {sum(c.testable for c in comparisons)} tests of this "
-        "table (a difference is claimed below only where it is under alpha); *detectable* "
+        f"Holm's p corrects for the {tests} test{'s' if tests != 1 else ''} "
+        "of this table (a difference is claimed below only where it is under alpha); "
+        "*detectable* "
         f"is the smallest mean difference these seeds find with power {POWER} at alpha "
         f"{ALPHA} (Welch, from the measured spread; optimistic at 3 seeds a side).",
         "",

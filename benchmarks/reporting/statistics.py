@@ -184,18 +184,20 @@ class Comparison:
             )
         t, p = result
         family_p = p if self.family_p is None else self.family_p
-        holm_note = f", Holm p = {family_p:.3g} over {self.family} tests" if self.family > 1 else ""
+        numbers = f"Welch t = {t:.2f}, p = {p:.3g}"
+        if self.family > 1:
+            numbers += f", Holm p = {family_p:.3g} over {self.family} tests"
         if family_p < ALPHA:
             direction = "higher" if t > 0 else "lower"
             return (
                 f"`{self.rlhc}`'s {self.group} {what} is {direction} than `{self.ppo}`'s "
-                f"(Welch t = {t:.2f}, p = {p:.3g}{holm_note}; {means})."
+                f"({numbers}; {means})."
             )
-        lean = f" (p < {ALPHA} alone, not after Holm's correction)" if p < ALPHA else ""
+        after = " after Holm's correction (p < alpha alone)" if p < ALPHA else ""
         return (
             f"`{self.rlhc}`'s {self.group} {what} is not significantly different from "
-            f"`{self.ppo}`'s{lean} (Welch t = {t:.2f}, p = {p:.3g}{holm_note}, alpha = "
-            f"{ALPHA}; {means}; detectable at power {POWER}: {fmt(self.detectable())})."
+            f"`{self.ppo}`'s{after} ({numbers}, alpha = {ALPHA}; {means}; detectable at "
+            f"power {POWER}: {fmt(self.detectable())})."
         )
 
 
