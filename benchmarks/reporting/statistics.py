@@ -193,7 +193,7 @@ class Comparison:
                 f"`{self.rlhc}`'s {self.group} {what} is {direction} than `{self.ppo}`'s "
                 f"({numbers}; {means})."
             )
-        after = " after Holm's correction (p < alpha alone)" if p < ALPHA else ""
+        after = " after Holm's correction" if p < ALPHA else ""
         return (
             f"`{self.rlhc}`'s {self.group} {what} is not significantly different from "
             f"`{self.ppo}`'s{after} ({numbers}, alpha = {ALPHA}; {means}; detectable at "

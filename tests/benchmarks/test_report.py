@@ -335,7 +335,7 @@ def test_comparisons_are_decided_on_holm_over_their_family() -> None:
     sentence = family[1].verdict()
     assert (
         "not significantly different" in sentence
-        and "after Holm's correction (p < alpha alone)" in sentence
+        and "`c`'s after Holm's correction (Welch" in sentence
     )
     assert f"detectable at power 0.8: {fmt(weak.detectable())}" in sentence
     assert untestable.detectable() is None
