@@ -306,8 +306,8 @@ def validate_evaluate(cfg: EvaluateConfig) -> None:
         raise ConfigError(
             f"env={cfg.env.name}: rlhc.evaluate plays matches, which need a built-in game "
             f"({', '.join(games())}) with a scripted team and match rules; judge a "
-            f"{cfg.env.name} run by its returns (python -m rlhc.plot <run dir>), and "
-            "competing groups by cross-play (rlhc.evaluation.cross_play)"
+            f"{cfg.env.name} run by its returns (python -m rlhc.evaluation.returns <run "
+            "dir> ...: returns, cross-play, a video)"
         )
     if cfg.env.name not in games():
         raise allowed("env", cfg.env.name, ", ".join(games()))

@@ -33,6 +33,7 @@ import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
+import numpy as np
 import torch
 from tensordict import TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
@@ -529,6 +530,35 @@ SOURCES: dict[str, Callable[..., TransformedEnv]] = {
 }
 
 
+def rendering_options(name: str, options: Mapping[str, Any]) -> dict[str, Any]:
+    """``options`` of source ``name`` with what makes its worlds render RGB frames
+    (:func:`render_frame`): PettingZoo's ``render_mode="rgb_array"`` among the factory's
+    keyword arguments; VMAS renders on request."""
+    if name != "pettingzoo":
+        return dict(options)
+    return {**options, "kwargs": {**(options.get("kwargs") or {}), "render_mode": "rgb_array"}}
+
+
+def render_frame(env: EnvBase, name: str) -> np.ndarray:
+    """World 0 of ``env`` (of source ``name``, built with :func:`rendering_options`) as an
+    ``uint8 [H, W, 3]`` image, drawn by the environment's own renderer.
+
+    Raises:
+        EnvError: the environment draws no RGB frame.
+    """
+    base = env.base_env if isinstance(env, TransformedEnv) else env
+    # VMAS draws a world on request; a SerialEnv of PettingZoo worlds returns each one's.
+    frame = base.render(mode="rgb_array", env_index=0) if name == "vmas" else base.render()[0]
+    image = None if frame is None else np.asarray(frame)
+    if image is None or image.ndim != 3 or image.shape[-1] != 3:
+        drawn = "nothing" if image is None else f"an array of shape {list(image.shape)}"
+        raise EnvError(
+            f"env={name}: the environment drew {drawn} for a frame; allowed: an RGB array "
+            "[height, width, 3] (a PettingZoo env that takes render_mode='rgb_array')"
+        )
+    return image.astype(np.uint8, copy=False)
+
+
 def make_source_env(
     name: str,
     num_envs: int = 1,
@@ -570,4 +600,6 @@ __all__ = [
     "make_pettingzoo_env",
     "make_source_env",
     "make_vmas_env",
+    "render_frame",
+    "rendering_options",
 ]

@@ -138,8 +138,8 @@ def cross_play(
     episodes each.
 
     Args:
-        runs: two or more runs on the same environment of another library
-            (``env=pettingzoo`` or ``env=vmas``) with the same options.
+        runs: runs on the same environment of another library (``env=pettingzoo`` or
+            ``env=vmas``) with the same options; one run plays its own episodes.
         episodes: episodes per lineup, at least: each of the ``num_envs`` worlds plays
             ``ceil(episodes / num_envs)`` of them, and all count.
         num_envs: worlds stepped as one batch.
@@ -147,12 +147,12 @@ def cross_play(
         deterministic: the policies' mode action (``True``) or a sample.
 
     Raises:
-        ValueError: fewer than two runs, ``episodes < 1``, a run on a built-in game, or
+        ValueError: no run, ``episodes < 1``, a run on a built-in game, or
             runs whose environments differ (the options named).
         FileNotFoundError: a path holds no checkpoint.
     """
-    if len(runs) < 2:
-        raise ValueError(f"cross-play needs two runs or more, got {len(runs)}")
+    if not runs:
+        raise ValueError("cross-play needs a run or more, got none")
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
     states = [load_team(run) for run in runs]

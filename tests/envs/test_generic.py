@@ -224,7 +224,10 @@ def test_rlhc_evaluate_refuses_a_generic_env() -> None:
     from rlhc.config.validation import validate_evaluate
     from rlhc.envs.schemas import VmasEnvConfig
 
-    with pytest.raises(ConfigError, match=r"env=vmas: rlhc.evaluate plays matches"):
+    with pytest.raises(
+        ConfigError,
+        match=r"env=vmas: rlhc.evaluate plays matches.*python -m rlhc.evaluation.returns",
+    ):
         validate_evaluate(EvaluateConfig(env=VmasEnvConfig(scenario="navigation")))
 
 

@@ -20,6 +20,8 @@ class Tiny(ParallelEnv):
         nan_at: the step at which ``blue_1`` observes NaN (``None``: never).
         leave_at: the step at which ``red_0`` terminates alone (``None``: never).
         with_state: give a global ``state()``.
+        render_mode: ``"rgb_array"``: ``render()`` draws each agent's first two coordinates
+            as a pixel of an 8 x 8 image; ``None``: it draws nothing.
     """
 
     metadata: ClassVar[dict[str, str]] = {"name": "tiny_v0"}
@@ -30,7 +32,9 @@ class Tiny(ParallelEnv):
         nan_at: int | None = None,
         leave_at: int | None = None,
         with_state: bool = True,
+        render_mode: str | None = None,
     ) -> None:
+        self.render_mode = render_mode
         self.possible_agents = ["blue_0", "blue_1", "red_0"]
         self.episode, self.nan_at, self.leave_at = episode, nan_at, leave_at
         self._observation = spaces.Box(-10.0, 10.0, (4,), np.float32)
@@ -51,6 +55,15 @@ class Tiny(ParallelEnv):
 
     def state(self) -> np.ndarray:
         return np.concatenate([self.positions[a] for a in self.possible_agents])
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode != "rgb_array":
+            return None
+        image = np.zeros((8, 8, 3), np.uint8)
+        for channel, agent in enumerate(self.possible_agents):
+            x, y = np.clip((self.positions[agent][:2] + 1.0) * 4.0, 0, 7).astype(int)
+            image[y, x, channel] = 255
+        return image
 
     def reset(self, seed: int | None = None, options: Any = None) -> tuple[dict, dict]:
         if seed is not None:
