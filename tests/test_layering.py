@@ -18,8 +18,9 @@ The floors are README's "Layout", lowest first (:data:`LAYERS`):
 9. ``rlhc.training``: the loop, which evaluates itself and plays a league;
 10. ``rlhc.analysis``: finished runs read back, their curves drawn;
 11. ``rlhc.cli``: what the entry points share (one-line errors, Hydra callbacks);
-12. the entry points, wiring only: ``rlhc.run``, ``rlhc.evaluate``, ``rlhc.plot`` and
-    ``rlhc.evaluation.diagnostics.__main__`` (``python -m rlhc.evaluation.diagnostics``).
+12. the entry points, wiring only: ``rlhc.run``, ``rlhc.evaluate``, ``rlhc.plot``,
+    ``rlhc.evaluation.diagnostics.__main__`` (``python -m rlhc.evaluation.diagnostics``)
+    and ``rlhc.evaluation.returns.__main__`` (``python -m rlhc.evaluation.returns``).
 
 A module may import its own floor and the floors below it, never one above. Some
 neighbours do not import each other at all (``rlhc.storage`` imports no other
@@ -54,7 +55,13 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("rlhc.training",),
     ("rlhc.analysis",),
     ("rlhc.cli",),
-    ("rlhc.run", "rlhc.evaluate", "rlhc.plot", "rlhc.evaluation.diagnostics.__main__"),
+    (
+        "rlhc.run",
+        "rlhc.evaluate",
+        "rlhc.plot",
+        "rlhc.evaluation.diagnostics.__main__",
+        "rlhc.evaluation.returns.__main__",
+    ),
 )
 
 

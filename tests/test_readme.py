@@ -72,6 +72,10 @@ REDUCED: dict[str, tuple[list[str], dict[str, str]]] = {
         [*TINY, "algo.buffer_size=192", "algo.batch_size=96"],  # multiples of its 3 agents
         {},
     ),
+    "python -m rlhc.evaluation.returns outputs/vmas/hierarchical/<time> --episodes 100 --video episode.gif": (
+        ["--worlds", "2", "--max-frames", "5"],
+        {"100": "2"},
+    ),
 }  # fmt: skip
 
 
@@ -180,10 +184,14 @@ def test_the_quick_start_commands_run_as_written(tmp_path: Path) -> None:
 
     # Environments of other libraries (the envs extra).
     run(next(names))
-    assert (only_child(tmp_path / "outputs" / "vmas" / "hierarchical") / "metrics.csv").is_file()
+    vmas = only_child(tmp_path / "outputs" / "vmas" / "hierarchical")
+    assert (vmas / "metrics.csv").is_file()
     run(next(names))
     pettingzoo = only_child(tmp_path / "outputs" / "pettingzoo" / "hierarchical")
     assert (pettingzoo / "metrics.csv").is_file()
+    judged = run(next(names), time=vmas.name)
+    assert "agents [1]: agents" in judged.stdout
+    assert (tmp_path / "episode.gif").stat().st_size > 0
 
 
 def test_the_readme_is_a_few_screens() -> None:

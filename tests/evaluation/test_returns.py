@@ -14,7 +14,8 @@ from rlhc.envs import make_env
 from rlhc.envs.generic import render_frame, rendering_options
 from rlhc.errors import EnvError
 from rlhc.evaluation.cross_play import cross_play
-from rlhc.evaluation.returns import main, record_episode
+from rlhc.evaluation.returns import record_episode
+from rlhc.evaluation.returns.__main__ import main
 
 TINY = {"factory": "tests.envs.tiny_envs:tiny", "kwargs": {}}
 

@@ -1,6 +1,6 @@
 """Trained teams on an environment of another library: their returns, their contests, a video.
 
-``python -m rlhc.evaluation.returns`` judges runs of ``env=pettingzoo`` or ``env=vmas``
+``python -m rlhc.evaluation.returns`` (:mod:`rlhc.evaluation.returns.__main__`) judges runs of ``env=pettingzoo`` or ``env=vmas``
 (which have no scripted team, so no matches): one run plays its own episodes; several
 runs play every lineup of :func:`~rlhc.evaluation.cross_play.cross_play` (each group
 played by each run), and each group's *advantage* of one run over another is how much
@@ -18,28 +18,23 @@ drawn as in training); every lineup plays the same episodes (``--seed``).
 
 from __future__ import annotations
 
-import argparse
 import itertools
-import json
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import torch
 from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
-from rlhc.cli.report import user_errors_in_one_line
 from rlhc.envs import make_env
 from rlhc.envs.generic import render_frame, rendering_options
 from rlhc.envs.keys import ACTION, DONE, NEXT
-from rlhc.evaluation.cross_play import CrossPlay, cross_play, shared_env_options
+from rlhc.evaluation.cross_play import CrossPlay, shared_env_options
 from rlhc.evaluation.policies import restore_policy
 from rlhc.evaluation.stats import t_interval
 from rlhc.evaluation.video import FORMATS, write_video
 from rlhc.storage.final_team import load_team
-
-PROGRAM = "python -m rlhc.evaluation.returns"
 
 
 def summary(result: CrossPlay, *, episodes: int, seed: int, deterministic: bool) -> dict[str, Any]:
@@ -162,72 +157,4 @@ def record_episode(
     return write_video(frames, path, fps), len(frames)
 
 
-def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog=PROGRAM, description=__doc__.splitlines()[0])
-    parser.add_argument("runs", nargs="+", help="run directories, checkpoints or final teams")
-    parser.add_argument("--episodes", type=int, default=100, help="episodes per lineup")
-    parser.add_argument("--worlds", type=int, default=10, help="worlds stepped as one batch")
-    parser.add_argument("--seed", type=int, default=0, help="the environment's seed")
-    parser.add_argument(
-        "--sampled", action="store_true", help="sample actions (default: the mode action)"
-    )
-    parser.add_argument("--out", type=Path, help="write the summary as JSON here")
-    parser.add_argument(
-        "--video", type=Path, help="record one episode of the first run here (.gif or .mp4)"
-    )
-    parser.add_argument("--max-frames", type=int, default=500, help="frames of the video")
-    parser.add_argument("--fps", type=int, default=10, help="frames per second of the video")
-    return parser.parse_args(argv)
-
-
-def check_args(args: argparse.Namespace) -> None:
-    """Refuse bad values before anything plays (:class:`ValueError`, one line)."""
-    for option in ("episodes", "worlds", "fps"):
-        if getattr(args, option) < 1:
-            raise ValueError(f"--{option} {getattr(args, option)}; allowed: >= 1")
-    if args.video is not None:
-        if args.video.suffix.lower() not in FORMATS:
-            raise ValueError(
-                f"--video {str(args.video)!r}; allowed: a file ending in {', '.join(FORMATS)}"
-            )
-        if args.max_frames < 2:
-            raise ValueError(f"--max-frames {args.max_frames}; allowed: >= 2")
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Print (and with ``--out`` write) the runs' returns; a user error exits 2 in one line."""
-    args = parse_args(argv)
-    torch.set_num_threads(1)
-    with user_errors_in_one_line(PROGRAM, (FileNotFoundError, ValueError)):
-        check_args(args)
-        result = cross_play(
-            args.runs,
-            args.episodes,
-            num_envs=args.worlds,
-            seed=args.seed,
-            deterministic=not args.sampled,
-        )
-        report = summary(
-            result, episodes=args.episodes, seed=args.seed, deterministic=not args.sampled
-        )
-        print(format_summary(report))
-        if args.video is not None:
-            written, frames = record_episode(
-                args.runs[0],
-                args.video,
-                seed=args.seed,
-                deterministic=not args.sampled,
-                max_frames=args.max_frames,
-                fps=args.fps,
-            )
-            report["video"] = str(written)
-            print(f"video: {written} ({frames} frames)")
-        if args.out is not None:
-            args.out.parent.mkdir(parents=True, exist_ok=True)
-            args.out.write_text(json.dumps(report, indent=2) + "\n")
-            print(f"summary: {args.out}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+__all__ = ["format_summary", "record_episode", "summary"]
