@@ -21,12 +21,13 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from statistics import NormalDist
 
 from .formatting import fmt_interval, share_interval, table
 from .plan import Study
 from .ratings import cross_score, pair_records, ratings
 from .runs import StudyRun, complete_runs
-from .study import BORROWED, comparisons_of
+from .study import ALPHA, BORROWED, POWER, comparisons_of
 from .tournament import Entrant, Record, Series, load_series, play_round_robin
 
 #: The study's series, next to its runs.
@@ -218,32 +219,50 @@ def head_to_head(
         unplayed += missing
         teams = f"{len(a_names)} x {len(b_names)}"
         if missing == pairs:
-            rows.append([label, teams, "no pair played"])
+            rows.append([label, teams, "no pair played", "—", "—"])
             continue
         estimate = cross_score(series, a_names, b_names, allow_missing=True)
         cell = f"{estimate.value:.3f} [{estimate.low:.3f}, {estimate.high:.3f}]"
+        half = (estimate.high - estimate.low) / 2
         if min(len(a_names), len(b_names)) < 2:  # no seed spread to resample on that side
             cell += " (one seed on a side: no seed spread in the interval, no verdict)"
         else:
             verdicts.append(head_to_head_verdict(f"{study}: {label}", estimate))
         if missing:
             teams += f" ({pairs - missing} of {pairs} pairs played)"
-        rows.append([label, teams, cell])
+        rows.append([label, teams, cell, f"{half:.3f}", f"{detectable_edge(half):.3f}"])
         grids += ["", *pair_grid(a, b, a_names, b_names, records)]
     if not rows:
         return [], verdicts, unplayed
     lines = [
         "Head-to-head, first configuration's score against the second over every pair of "
         "their seeds; the 95% interval resamples the seeds of both sides and the matches "
-        "within each pair (two-level bootstrap), so it includes the spread between seeds:",
+        "within each pair (two-level bootstrap), so it includes the spread between seeds. "
+        f"*Detectable*: the smallest edge over an even 0.5 these seeds would find with power "
+        f"{POWER} at alpha {ALPHA}, from the interval's half-width (normal approximation); "
+        "half-widths shrink about as one over the square root of the seeds a side (four "
+        "times the seeds, half the width):",
         "",
-        *table(["first vs second", "teams", "score [95% CI]"], rows),
+        *table(["first vs second", "teams", "score [95% CI]", "half-width", "detectable"], rows),
         "",
         "Every seed pair: the row team's score against the column team (wins + draws / 2 "
         f"per match, over the pair's matches; — not played).{PLAYED_ONLY if unplayed else ''}",
         *grids,
     ]
     return lines, verdicts, unplayed
+
+
+def detectable_edge(half_width: float, alpha: float = ALPHA, power: float = POWER) -> float:
+    """The smallest edge over an even 0.5 that a score whose ``1 - alpha`` interval has
+    ``half_width`` would show with ``power``: ``half_width · (z_{1-alpha/2} + z_power) /
+    z_{1-alpha/2}`` (a normal sampling distribution, its spread read off the interval).
+
+    Examples:
+        >>> round(detectable_edge(0.1), 3)
+        0.143
+    """
+    z = NormalDist().inv_cdf
+    return half_width * (z(1 - alpha / 2) + z(power)) / z(1 - alpha / 2)
 
 
 def pair_grid(
@@ -316,5 +335,10 @@ def head_to_head_verdict(label: str, estimate: object) -> str:
     elif high < 0.5:
         how = "the first scores lower than the second"
     else:
+        edge = detectable_edge((high - low) / 2)
         how = "not distinguishable from an even 0.5"
+        return (
+            f"{label} head-to-head: {how} (score {value:.3f}, 95% CI [{low:.3f}, "
+            f"{high:.3f}]; detectable at power {POWER}: an edge of {edge:.3f})."
+        )
     return f"{label} head-to-head: {how} (score {value:.3f}, 95% CI [{low:.3f}, {high:.3f}])."

@@ -420,7 +420,12 @@ def test_matches_section_reads_the_store(toy: dict[str, Study], results: Path) -
     played += [series(teams[0], teams[1], 5, 0, 5), series(teams[2], teams[3], 5, 0, 5)]
     text, verdicts = matches_with(played, toy["toy"], runs)
     assert "15 series, 150 matches (10 per pairing" in text
-    assert "| `hierarchical` vs `ppo` | 2 x 2 | 0.700 [" in text
+    row = next(line for line in text.splitlines() if line.startswith("| `hierarchical` vs `ppo` |"))
+    # 0.700 [low, high] | half-width | detectable = half-width x (1.960 + 0.842) / 1.960
+    score, half, edge = (cell.strip() for cell in row.strip("|").split("|")[2:])
+    low, high = (float(x) for x in score.split("[")[1].rstrip("]").split(","))
+    assert score.startswith("0.700 [") and float(half) == pytest.approx((high - low) / 2, abs=1e-3)
+    assert float(edge) == pytest.approx(float(half) * 2.8015 / 1.95996, abs=2e-3)
     assert "| `hierarchical` (rows) vs `ppo` | `seed_0` | `seed_1` |" in text
     assert "| `seed_0` | 0.700 | 0.700 |" in text
     assert "| `hierarchical` | 0.150 [0.150, 0.150] | 0.15, 0.15 | 0.111 [0.111, 0.111] |" in text
