@@ -100,6 +100,7 @@ def test_an_env_that_draws_nothing_is_refused_in_one_line() -> None:
     [
         (["{tmp}/missing"], "no final_team.pt in"),
         (["{run}", "--episodes", "0"], "--episodes 0; allowed: >= 1"),
+        (["{run}", "{run}"], "given twice; allowed: each run once"),
         (["{run}", "--video", "{tmp}/v.avi"], "v.avi'; allowed: a file ending in .gif, .mp4"),
         (["{run}", "--video", "{tmp}/v.gif", "--max-frames", "1"], "--max-frames 1; allowed"),
     ],

@@ -1,8 +1,8 @@
 """Trained teams on an environment of another library: their returns, their contests, a video.
 
-``python -m rlhc.evaluation.returns`` (:mod:`rlhc.evaluation.returns.__main__`) judges runs of ``env=pettingzoo`` or ``env=vmas``
-(which have no scripted team, so no matches): one run plays its own episodes; several
-runs play every lineup of :func:`~rlhc.evaluation.cross_play.cross_play` (each group
+``python -m rlhc.evaluation.returns`` (:mod:`rlhc.evaluation.returns.__main__`) judges
+runs of ``env=pettingzoo`` or ``env=vmas`` (which have no scripted team, so no matches):
+one run plays its own episodes; several runs play every lineup of :func:`~rlhc.evaluation.cross_play.cross_play` (each group
 played by each run), and each group's *advantage* of one run over another is how much
 more it returns against the same opponents. ``--video`` records one episode of the first
 run (every group its own) from the environment's own renderer.
@@ -38,7 +38,7 @@ from rlhc.storage.final_team import load_team
 
 
 def summary(result: CrossPlay, *, episodes: int, seed: int, deterministic: bool) -> dict[str, Any]:
-    """What :func:`main` prints and writes: each lineup's returns with their 95% t
+    """What the command prints and writes: each lineup's returns with their 95% t
     interval over episodes, and each group's advantage between every two runs."""
     lineups = []
     for lineup, returns in result.returns.items():

@@ -41,6 +41,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 
 def check_args(args: argparse.Namespace) -> None:
     """Refuse bad values before anything plays (:class:`ValueError`, one line)."""
+    repeated = sorted({run for run in args.runs if args.runs.count(run) > 1})
+    if repeated:
+        raise ValueError(f"runs {repeated} given twice; allowed: each run once")
     for option in ("episodes", "worlds", "fps"):
         if getattr(args, option) < 1:
             raise ValueError(f"--{option} {getattr(args, option)}; allowed: >= 1")
