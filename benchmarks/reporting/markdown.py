@@ -238,11 +238,15 @@ def finals_section(
         "`tennis_paper`'s hierarchical and PPO). Samples: one value "
         "per completed seed — the mean of the last 10% (by steps) of that run's "
         f"TensorBoard-smoothed (EMA {SMOOTHING}) `<group>/cumulative_reward` curve. "
-        f"Holm's p corrects for the {tests} test{'s' if tests != 1 else ''} "
-        "of this table (a difference is claimed below only where it is under alpha); "
-        "*detectable* "
-        f"is the smallest mean difference these seeds find with power {POWER} at alpha "
-        f"{ALPHA} (Welch, from the measured spread; optimistic at 3 seeds a side).",
+        + (
+            f"Holm's p corrects for the {tests} test{'s' if tests != 1 else ''} of this "
+            "table (a difference is claimed below only where it is under alpha); "
+            "*detectable* is the smallest mean difference these seeds find with power "
+            f"{POWER} at alpha {ALPHA} (Welch, from the measured spread; optimistic at 3 "
+            "seeds a side)."
+            if tests
+            else "No test yet: each needs 2 complete seeds per side."
+        ),
         "",
         *table(
             [

@@ -24,7 +24,7 @@ from benchmarks.reporting.formatting import (
     share_interval,
     table,
 )
-from benchmarks.reporting.markdown import runs_section
+from benchmarks.reporting.markdown import finals_section, runs_section
 from benchmarks.reporting.plan import PlannedRun, Study, plan, read_study, studies
 from benchmarks.reporting.runs import StudyRun, complete_runs, discover
 from benchmarks.reporting.standings import BUILT_IN as BUILT_INS
@@ -299,6 +299,17 @@ def test_no_threshold_when_nothing_improves(tmp_path: Path) -> None:
     tables = [config_finals("toy/ppo", runs, "racket")]
     assert fill_reach(tables, runs, "racket", 0.5) is None
     assert tables[0].reach == [None]
+
+
+def test_a_finals_table_without_a_testable_pair_says_so(tmp_path: Path) -> None:
+    for config in ("ppo", "hierarchical"):
+        write_run(tmp_path, config, 0, [0.1 * i for i in range(10)])
+    study = toy_study(tmp_path)
+    lines, comparisons = finals_section(study, discover({"toy": study}), 0.5)
+    assert comparisons and not any(c.testable for c in comparisons)
+    text = "\n".join(lines)
+    assert "No test yet: each needs 2 complete seeds per side." in text
+    assert "Holm's p corrects" not in text
 
 
 def test_comparison_uses_per_seed_values_and_words_the_result() -> None:
