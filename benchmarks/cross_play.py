@@ -172,10 +172,12 @@ def summarise(values: Sequence[Advantage]) -> list[str]:
         by_key.setdefault((value.group, value.first, value.second), []).append(value.value)
     for (group, first, second), seeds in by_key.items():
         interval = t_interval(seeds)
-        lines.append(
-            f"{group}: {first} over {second} by {interval.mean:+.2f} "
+        spread = (
             f"[{interval.low:+.2f}, {interval.high:+.2f}] ({len(seeds)} seeds)"
+            if len(seeds) > 1
+            else "(1 seed, no interval)"
         )
+        lines.append(f"{group}: {first} over {second} by {interval.mean:+.2f} {spread}")
     return lines
 
 

@@ -42,6 +42,7 @@ def test_a_groups_advantage_is_over_the_same_opponents() -> None:
         (1, "prey", 1.0),
     ]
     assert benchmark.summarise(values)[0] == "predator: a over b by +2.00 [+2.00, +2.00] (2 seeds)"
+    assert benchmark.summarise(values[:2])[0] == "predator: a over b by +2.00 (1 seed, no interval)"
 
 
 def test_each_pair_and_seed_is_played_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
