@@ -90,9 +90,11 @@ def cross_play_lines(study: Study) -> list[str]:
     for (group, first, second), per_seed in sorted(seeds.items()):
         interval = t_interval(per_seed)
         verdict = "no difference shown"
-        if interval.n >= 2 and interval.low > 0:
+        if interval.n < 2:
+            verdict = "— (needs ≥ 2 seeds)"
+        elif interval.low > 0:
             verdict = f"`{first}`'s {group} better"
-        elif interval.n >= 2 and interval.high < 0:
+        elif interval.high < 0:
             verdict = f"`{second}`'s {group} better"
         cells = [f"`{first}` vs `{second}`", group, str(interval.n), fmt_interval(interval)]
         rows.append([*cells, verdict])

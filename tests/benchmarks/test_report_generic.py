@@ -215,3 +215,13 @@ def test_a_contest_shows_its_cross_play_where_it_was_played(
         in section
     )
     assert f"| `hierarchical` vs `ppo` | agent | 3 | {none} | no difference shown |" in section
+    # One seed: a value, no verdict.
+    with (tag["tag"].root / "cross_play.csv").open("w", newline="") as f:
+        writer = csv.DictWriter(f, list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows[:4])
+    section = blocks_of(build_report(args, plan=tag))["study tag"]
+    assert (
+        "| `hierarchical` vs `ppo` | adversary | 1 | 2.0000 (n=1, no interval) | — (needs ≥ 2 seeds) |"
+        in section
+    )
