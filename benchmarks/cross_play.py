@@ -162,15 +162,20 @@ def main(argv: Sequence[str] | None = None) -> None:
         print(advantage)
 
 
+def per_seed(values: Iterable[Advantage]) -> dict[tuple[str, str, str], list[float]]:
+    """``(group, first, second) -> [advantage at each seed]``, in the order first met."""
+    seeds: dict[tuple[str, str, str], list[float]] = {}
+    for value in values:
+        seeds.setdefault((value.group, value.first, value.second), []).append(value.value)
+    return seeds
+
+
 def summarise(values: Sequence[Advantage]) -> list[str]:
     """One line per group and pair: the mean advantage over seeds [95% t]."""
     from rlhc.evaluation.stats import t_interval
 
     lines = []
-    by_key: dict[tuple[str, str, str], list[float]] = {}
-    for value in values:
-        by_key.setdefault((value.group, value.first, value.second), []).append(value.value)
-    for (group, first, second), seeds in by_key.items():
+    for (group, first, second), seeds in per_seed(values).items():
         interval = t_interval(seeds)
         spread = (
             f"[{interval.low:+.2f}, {interval.high:+.2f}] ({len(seeds)} seeds)"

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 from rlhc.evaluation.stats import t_interval
 
-from ..cross_play import FILE, advantages, read_rows
+from ..cross_play import FILE, advantages, per_seed, read_rows
 from .formatting import fmt_interval, table
 from .markdown import finals_note, speed_cells
 from .plan import ROOT, Study
@@ -83,12 +83,9 @@ def cross_play_lines(study: Study) -> list[str]:
     ]
     if not values:
         return [f"**Cross-play** — not played yet: `{command}` plays it (from the final teams)."]
-    seeds: dict[tuple[str, str, str], list[float]] = {}
-    for value in values:
-        seeds.setdefault((value.group, value.first, value.second), []).append(value.value)
     rows = []
-    for (group, first, second), per_seed in sorted(seeds.items()):
-        interval = t_interval(per_seed)
+    for (group, first, second), seeds in sorted(per_seed(values).items()):
+        interval = t_interval(seeds)
         verdict = "no difference shown"
         if interval.n < 2:
             verdict = "— (needs ≥ 2 seeds)"
