@@ -330,15 +330,13 @@ def built_in_table(study: Study, series: Sequence[Series], runs: Sequence[StudyR
 def head_to_head_verdict(label: str, estimate: object) -> str:
     """A neutral sentence on a head-to-head score and its seed-spread interval."""
     value, low, high = (float(getattr(estimate, k)) for k in ("value", "low", "high"))
+    detail = f"score {value:.3f}, 95% CI [{low:.3f}, {high:.3f}]"
     if low > 0.5:
         how = "the first scores higher than the second"
     elif high < 0.5:
         how = "the first scores lower than the second"
     else:
-        edge = detectable_edge((high - low) / 2)
         how = "not distinguishable from an even 0.5"
-        return (
-            f"{label} head-to-head: {how} (score {value:.3f}, 95% CI [{low:.3f}, "
-            f"{high:.3f}]; detectable at power {POWER}: an edge of {edge:.3f})."
-        )
-    return f"{label} head-to-head: {how} (score {value:.3f}, 95% CI [{low:.3f}, {high:.3f}])."
+        edge = detectable_edge((high - low) / 2)
+        detail += f"; detectable at power {POWER}: an edge of {edge:.3f}"
+    return f"{label} head-to-head: {how} ({detail})."

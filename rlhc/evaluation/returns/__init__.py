@@ -2,9 +2,10 @@
 
 ``python -m rlhc.evaluation.returns`` (:mod:`rlhc.evaluation.returns.__main__`) judges
 runs of ``env=pettingzoo`` or ``env=vmas`` (which have no scripted team, so no matches):
-one run plays its own episodes; several runs play every lineup of :func:`~rlhc.evaluation.cross_play.cross_play` (each group
-played by each run), and each group's *advantage* of one run over another is how much
-more it returns against the same opponents. ``--video`` records one episode of the first
+one run plays its own episodes; several runs play every lineup of
+:func:`~rlhc.evaluation.cross_play.cross_play` (each group played by each run), and each
+group's *advantage* of one run over another is how much more it returns against the same
+opponents. ``--video`` records one episode of the first
 run (every group its own) from the environment's own renderer.
 
 Usage:
@@ -35,6 +36,8 @@ from rlhc.evaluation.policies import restore_policy
 from rlhc.evaluation.stats import t_interval
 from rlhc.evaluation.video import FORMATS, write_video
 from rlhc.storage.final_team import load_team
+
+__all__ = ["format_summary", "record_episode", "summary"]
 
 
 def summary(result: CrossPlay, *, episodes: int, seed: int, deterministic: bool) -> dict[str, Any]:
@@ -155,6 +158,3 @@ def record_episode(
             tensordict = step_mdp(tensordict)
     env.close()
     return write_video(frames, path, fps), len(frames)
-
-
-__all__ = ["format_summary", "record_episode", "summary"]
